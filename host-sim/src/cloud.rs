@@ -1,0 +1,43 @@
+//! Host-side point records, common to the core, the reference and the writers.
+
+/// One point of a processed frame.
+#[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct PointRecord {
+    /// x forward, m.
+    pub x: f64,
+    /// y left, m.
+    pub y: f64,
+    /// z up, m.
+    pub z: f64,
+    /// Radial velocity, m/s, positive receding.
+    pub doppler: f64,
+    /// Capon power, dB.
+    pub intensity_db: f64,
+    /// RA-map power over the CFAR level, dB.
+    pub snr_db: f64,
+    /// Range bin.
+    pub range_bin: u32,
+    /// Azimuth grid bin.
+    pub azimuth_bin: u32,
+    /// Elevation grid bin.
+    pub elevation_bin: u32,
+    /// Signed Doppler bin.
+    pub doppler_bin: i32,
+}
+
+impl From<&dbe_radar::Point> for PointRecord {
+    fn from(p: &dbe_radar::Point) -> Self {
+        Self {
+            x: f64::from(p.position.x),
+            y: f64::from(p.position.y),
+            z: f64::from(p.position.z),
+            doppler: f64::from(p.velocity_mps),
+            intensity_db: f64::from(p.power_db),
+            snr_db: f64::from(p.snr_db),
+            range_bin: u32::from(p.range_bin),
+            azimuth_bin: u32::from(p.azimuth_bin),
+            elevation_bin: u32::from(p.elevation_bin),
+            doppler_bin: i32::from(p.doppler_bin),
+        }
+    }
+}

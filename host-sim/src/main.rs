@@ -1,0 +1,2 @@
+//! The `dbe` command.
+fn main() {}

@@ -1,0 +1,84 @@
+//! Sensor description with runtime sizes: what a calibration folder says.
+
+use dbe_radar::{AntennaGeometry, Waveform};
+use num_complex::Complex32;
+
+/// ColoRadar-style coupling calibration: `data[(t·rx + r)·range_bins + b]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Coupling {
+    /// Range bins in the table.
+    pub range_bins: usize,
+    /// Complex values, `[tx][rx][range bin]`.
+    pub data: Vec<Complex32>,
+}
+
+/// Everything known about a sensor: sizes, waveform, antenna layout, optional coupling.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SensorConfig {
+    /// Complex ADC samples per chirp.
+    pub samples: usize,
+    /// Loops (chirps per TX) per frame.
+    pub loops: usize,
+    /// TX count (TDM slots, data order).
+    pub num_tx: usize,
+    /// RX count.
+    pub num_rx: usize,
+    /// Chirp waveform.
+    pub waveform: Waveform,
+    /// `(az, el)` per TX in half-wavelength units, by TX data index.
+    pub tx: Vec<(f32, f32)>,
+    /// `(az, el)` per RX.
+    pub rx: Vec<(f32, f32)>,
+    /// Frequency of the half-wavelength unit, Hz.
+    pub f_design_hz: f64,
+    /// Coupling calibration, when present.
+    pub coupling: Option<Coupling>,
+}
+
+impl SensorConfig {
+    /// ColoRadar's single-chip sensor (built-in values of `calib/single_chip`), no coupling.
+    pub fn coloradar() -> Self {
+        let g = AntennaGeometry::COLORADAR;
+        Self {
+            samples: 128,
+            loops: 128,
+            num_tx: 3,
+            num_rx: 4,
+            waveform: Waveform::COLORADAR,
+            tx: g.tx.to_vec(),
+            rx: g.rx.to_vec(),
+            f_design_hz: g.f_design_hz,
+            coupling: None,
+        }
+    }
+
+    /// The TI IWR6843 fixture's sensor (RF values assumed, see the fixture README).
+    pub fn iwr6843_fixture() -> Self {
+        let g = AntennaGeometry::IWR6843_FIXTURE;
+        Self {
+            samples: 256,
+            loops: 64,
+            num_tx: 3,
+            num_rx: 4,
+            waveform: Waveform::IWR6843_FIXTURE,
+            tx: g.tx.to_vec(),
+            rx: g.rx.to_vec(),
+            f_design_hz: g.f_design_hz,
+            coupling: None,
+        }
+    }
+
+    /// The 3 TX × 4 RX geometry the core takes, if the sizes fit.
+    pub fn geometry(&self) -> Option<AntennaGeometry<3, 4>> {
+        Some(AntennaGeometry {
+            tx: self.tx.clone().try_into().ok()?,
+            rx: self.rx.clone().try_into().ok()?,
+            f_design_hz: self.f_design_hz,
+        })
+    }
+
+    /// Bytes of one raw frame (int16 I and Q).
+    pub fn frame_bytes(&self) -> usize {
+        self.samples * self.loops * self.num_tx * self.num_rx * 4
+    }
+}

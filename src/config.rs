@@ -1,0 +1,523 @@
+//! Runtime configuration: waveform, antenna geometry and processing parameters.
+//!
+//! Values live at runtime, shapes live in types: the array sizes are the const generics of
+//! [`Config`], everything else is validated once by [`Config::new`] into a typed
+//! [`ConfigError`] that names the offending parameter. After that the hot path is infallible.
+
+use core::fmt;
+
+use crate::window::WindowKind;
+
+/// Speed of light in vacuum, m/s.
+pub const SPEED_OF_LIGHT: f64 = 299_792_458.0;
+
+/// The chirp waveform, in SI units (the values of ColoRadar's `waveform_cfg.txt`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Waveform {
+    /// ADC sample rate fs, Hz (complex samples per second).
+    pub adc_sample_rate_hz: f64,
+    /// Chirp slope S, Hz/s.
+    pub slope_hz_per_s: f64,
+    /// Start frequency of the ramp, Hz.
+    pub start_frequency_hz: f64,
+    /// Idle time before each ramp, s.
+    pub idle_time_s: f64,
+    /// Ramp end time, s. The chirp period is `Tc = idle + ramp_end`.
+    pub ramp_end_time_s: f64,
+}
+
+impl Waveform {
+    /// ColoRadar's single-chip AWR1843BOOST waveform (`calib/single_chip/waveform_cfg.txt`).
+    pub const COLORADAR: Self = Self {
+        adc_sample_rate_hz: 10_666_000.0,
+        slope_hz_per_s: 1.000_000_003_77e14,
+        start_frequency_hz: 76_999_999_488.0,
+        idle_time_s: 0.000_110_000_000_859,
+        ramp_end_time_s: 1.999_999_949_48e-5,
+    };
+
+    /// The TI IWR6843 fixture's waveform. Its RF values are ASSUMED (typical IWR6843
+    /// settings, see `shared/fixtures/ti-iwr6843-corner-reflector/README.md`): bin indices and
+    /// angles do not depend on them, metres and m/s do.
+    pub const IWR6843_FIXTURE: Self = Self {
+        adc_sample_rate_hz: 10_000_000.0,
+        slope_hz_per_s: 60.0e12,
+        start_frequency_hz: 60.25e9,
+        idle_time_s: 10.0e-6,
+        ramp_end_time_s: 60.0e-6,
+    };
+
+    /// Chirp period `Tc = idle + ramp_end`, s: the time between two TX slots.
+    pub fn chirp_period_s(&self) -> f64 {
+        self.idle_time_s + self.ramp_end_time_s
+    }
+
+    /// Loop period `T_loop = num_tx · Tc`, s: the slow-time sample interval.
+    pub fn loop_period_s(&self, num_tx: usize) -> f64 {
+        num_tx as f64 * self.chirp_period_s()
+    }
+
+    /// Carrier used for phases: `f_c = f_start + S · (N / fs) / 2`, Hz.
+    pub fn center_frequency_hz(&self, samples: usize) -> f64 {
+        self.start_frequency_hz
+            + self.slope_hz_per_s * (samples as f64 / self.adc_sample_rate_hz) / 2.0
+    }
+
+    /// Wavelength at the carrier, `λ = c / f_c`, m.
+    pub fn wavelength_m(&self, samples: usize) -> f64 {
+        SPEED_OF_LIGHT / self.center_frequency_hz(samples)
+    }
+
+    /// Range per range bin, `c · fs / (2 · S · N)`, m.
+    pub fn range_bin_m(&self, samples: usize) -> f64 {
+        SPEED_OF_LIGHT * self.adc_sample_rate_hz / (2.0 * self.slope_hz_per_s * samples as f64)
+    }
+
+    /// Radial velocity per Doppler bin, `λ / (2 · K · T_loop)`, m/s.
+    pub fn doppler_bin_mps(&self, samples: usize, loops: usize, num_tx: usize) -> f64 {
+        self.wavelength_m(samples) / (2.0 * loops as f64 * self.loop_period_s(num_tx))
+    }
+
+    pub(crate) fn validate(&self) -> Result<(), ConfigError> {
+        positive(self.adc_sample_rate_hz, Param::AdcSampleRate)?;
+        positive(self.slope_hz_per_s, Param::Slope)?;
+        positive(self.start_frequency_hz, Param::StartFrequency)?;
+        finite(self.idle_time_s, Param::IdleTime)?;
+        if self.idle_time_s < 0.0 {
+            return Err(ConfigError::OutOfRange(Param::IdleTime));
+        }
+        positive(self.ramp_end_time_s, Param::RampEndTime)
+    }
+}
+
+/// Antenna positions in half-wavelength units at `f_design_hz` (ColoRadar's `antenna_cfg.txt`).
+///
+/// Virtual antenna `(t, r)` sits at `az = tx[t].0 + rx[r].0`, `el = tx[t].1 + rx[r].1`, where
+/// `t` is the TX *data index*, which is also its TDM slot: TX `t` fires at `t · Tc` in each loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AntennaGeometry<const TX: usize, const RX: usize> {
+    /// `(az, el)` of each TX, indexed by TX data index.
+    pub tx: [(f32, f32); TX],
+    /// `(az, el)` of each RX.
+    pub rx: [(f32, f32); RX],
+    /// Frequency at which the half-wavelength units are defined, Hz.
+    pub f_design_hz: f64,
+}
+
+impl AntennaGeometry<3, 4> {
+    /// ColoRadar single-chip layout: TX0 at az 0, TX1 at az 4, TX2 at az 2 / el 1;
+    /// `F_design` = 76.8 GHz (inferred, see `shared/fixtures/coloradar-calib/README.md`).
+    pub const COLORADAR: Self = Self {
+        tx: [(0.0, 0.0), (4.0, 0.0), (2.0, 1.0)],
+        rx: [(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (3.0, 0.0)],
+        f_design_hz: 76.8e9,
+    };
+
+    /// The IWR6843 fixture's layout (inferred from its phases): TX0 at az 0, TX1 at az 2 /
+    /// el 1, TX2 at az 4; `F_design` = 60.5 GHz.
+    pub const IWR6843_FIXTURE: Self = Self {
+        tx: [(0.0, 0.0), (2.0, 1.0), (4.0, 0.0)],
+        rx: [(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (3.0, 0.0)],
+        f_design_hz: 60.5e9,
+    };
+}
+
+/// Where each virtual antenna went: the cube's row order, derived from an [`AntennaGeometry`].
+///
+/// Rows `0..AZ` are the azimuth line (lowest elevation), sorted by azimuth position; rows
+/// `AZ..M` are the elevation row, sorted by azimuth position. The azimuth covariance is then
+/// the top-left `AZ × AZ` block of the full `M × M` covariance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArrayLayout<const TX: usize, const RX: usize, const M: usize> {
+    /// Cube row of virtual antenna `(t, r)`: `row_of[t][r]`.
+    pub row_of: [[u8; RX]; TX],
+    /// Azimuth position of each row, half-wavelength units.
+    pub az: [f32; M],
+    /// Elevation position of each row, half-wavelength units (relative to the azimuth line).
+    pub el: [f32; M],
+    /// TDM slot (TX data index) of each row.
+    pub slot: [u8; M],
+}
+
+impl<const TX: usize, const RX: usize, const M: usize> ArrayLayout<TX, RX, M> {
+    /// Sort the virtual array into an azimuth line of `az` elements followed by the rest.
+    ///
+    /// The azimuth line is the `az` elements at the lowest elevation; it must be a uniform line
+    /// (constant non-zero spacing), which forward–backward averaging requires. All remaining
+    /// elements must share one elevation different from the line's.
+    pub fn new(geometry: &AntennaGeometry<TX, RX>, az: usize) -> Result<Self, ConfigError> {
+        if TX * RX != M || M > u8::MAX as usize || az == 0 || az > M {
+            return Err(ConfigError::ArrayShape);
+        }
+        for &(a, e) in geometry.tx.iter().chain(geometry.rx.iter()) {
+            finite(f64::from(a), Param::AntennaPosition)?;
+            finite(f64::from(e), Param::AntennaPosition)?;
+        }
+        positive(geometry.f_design_hz, Param::DesignFrequency)?;
+
+        // Virtual positions in data order m = t·RX + r.
+        let mut pos = [(0.0f32, 0.0f32, 0u8, 0u8); M];
+        for (t, &(ta, te)) in geometry.tx.iter().enumerate() {
+            for (r, &(ra, re)) in geometry.rx.iter().enumerate() {
+                pos[t * RX + r] = (ta + ra, te + re, t as u8, r as u8);
+            }
+        }
+        // Sort by (elevation, azimuth); insertion sort keeps this allocation-free and stable.
+        for i in 1..M {
+            let mut j = i;
+            while j > 0 && key_less(pos[j], pos[j - 1]) {
+                pos.swap(j, j - 1);
+                j -= 1;
+            }
+        }
+        let line_el = pos[0].1;
+        let line_count = pos.iter().filter(|p| p.1 == line_el).count();
+        if line_count != az {
+            return Err(ConfigError::AzimuthRowCount {
+                found: line_count as u8,
+                expected: az as u8,
+            });
+        }
+        if az > 1 {
+            let spacing = pos[1].0 - pos[0].0;
+            let uniform = spacing.abs() > 1e-3
+                && (1..az).all(|i| ((pos[i].0 - pos[i - 1].0) - spacing).abs() <= 1e-3);
+            if !uniform {
+                return Err(ConfigError::AzimuthNotUniform);
+            }
+        }
+        if az < M {
+            let row_el = pos[az].1;
+            if pos[az..].iter().any(|p| p.1 != row_el) {
+                return Err(ConfigError::ElevationRowNotFlat);
+            }
+        }
+        let mut layout = Self {
+            row_of: [[0; RX]; TX],
+            az: [0.0; M],
+            el: [0.0; M],
+            slot: [0; M],
+        };
+        for (row, &(a, e, t, r)) in pos.iter().enumerate() {
+            layout.row_of[t as usize][r as usize] = row as u8;
+            layout.az[row] = a;
+            layout.el[row] = e - line_el;
+            layout.slot[row] = t;
+        }
+        Ok(layout)
+    }
+}
+
+fn key_less(a: (f32, f32, u8, u8), b: (f32, f32, u8, u8)) -> bool {
+    (a.1, a.0) < (b.1, b.0)
+}
+
+/// 2-D OS-CFAR parameters on the range–azimuth map (linear power).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CfarParams {
+    /// Guard half-width along range, bins (excluded from training).
+    pub guard_range: u8,
+    /// Guard half-width along azimuth, bins.
+    pub guard_azimuth: u8,
+    /// Training half-width along range beyond the guard, bins.
+    pub train_range: u8,
+    /// Training half-width along azimuth beyond the guard, bins.
+    pub train_azimuth: u8,
+    /// Order-statistic quantile q: the noise level is the `⌈q·n⌉`-th smallest training value.
+    pub quantile: f32,
+    /// Threshold factor α over the noise level, dB (`threshold = α · level`).
+    pub threshold_db: f32,
+    /// Azimuth bins skipped at each edge of the grid (no detection there).
+    pub edge_skip_azimuth: u8,
+}
+
+impl CfarParams {
+    /// Guard 2 × 4, training 4 × 8 beyond the guard, q = 0.75 (spec §3), α = 12 dB, 4 edge
+    /// bins skipped (spec §3).
+    pub const DEFAULT: Self = Self {
+        guard_range: 2,
+        guard_azimuth: 4,
+        train_range: 4,
+        train_azimuth: 8,
+        quantile: 0.75,
+        threshold_db: 12.0,
+        edge_skip_azimuth: 4,
+    };
+
+    /// Training cells of a full (untruncated) window.
+    pub const fn full_training_cells(&self) -> usize {
+        let outer_r = 2 * (self.guard_range as usize + self.train_range as usize) + 1;
+        let outer_a = 2 * (self.guard_azimuth as usize + self.train_azimuth as usize) + 1;
+        let inner_r = 2 * self.guard_range as usize + 1;
+        let inner_a = 2 * self.guard_azimuth as usize + 1;
+        outer_r * outer_a - inner_r * inner_a
+    }
+}
+
+impl Default for CfarParams {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// The most elevation peaks a detection may keep (bounds a stack buffer).
+pub const MAX_ELEVATION_PEAKS: usize = 4;
+
+/// Rules for keeping elevation-spectrum peaks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ElevationParams {
+    /// Peaks kept per detection, at most (interior local maxima only).
+    pub max_peaks: u8,
+    /// A peak is kept only within this many dB of the strongest peak.
+    pub peak_range_db: f32,
+}
+
+impl ElevationParams {
+    /// At most 2 peaks within 6 dB of the strongest (spec §3).
+    pub const DEFAULT: Self = Self {
+        max_peaks: 2,
+        peak_range_db: 6.0,
+    };
+}
+
+impl Default for ElevationParams {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// Processing parameters of the DBE chain (defaults of spec §3).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Params {
+    /// First range bin processed (inclusive).
+    pub range_first: u16,
+    /// Last range bin processed (inclusive); at most `N − 1`.
+    pub range_last: u16,
+    /// Range window applied before the range FFT.
+    pub range_window: WindowKind,
+    /// Slow-time window applied before the Doppler FFT.
+    pub doppler_window: WindowKind,
+    /// Diagonal loading factor γ: `δ = γ · tr(R) / M`.
+    pub loading: f32,
+    /// Forward–backward averaging of the azimuth covariance.
+    pub forward_backward: bool,
+    /// TDM-MIMO motion compensation before elevation and Doppler.
+    pub tdm_compensation: bool,
+    /// With TDM compensation: how far (azimuth bins) the detection's azimuth may move to the
+    /// peak of the compensated spectrum. The uncompensated slot step between the two halves
+    /// of a 3-TX azimuth line shifts the peak by up to ~5° at the unambiguous velocity limit;
+    /// 8 bins (6° on the default grid) covers it without reaching a neighbouring target.
+    pub tdm_azimuth_search: u8,
+    /// Azimuth grid: first and last angle, degrees (the grid size is a const generic).
+    pub azimuth_span_deg: (f32, f32),
+    /// Elevation grid: first and last angle, degrees.
+    pub elevation_span_deg: (f32, f32),
+    /// Detection parameters.
+    pub cfar: CfarParams,
+    /// Elevation peak rules.
+    pub elevation: ElevationParams,
+}
+
+impl Params {
+    /// Defaults for `samples` samples per chirp: range bins `12 ..= N − 2`, Blackman range
+    /// window, Hann Doppler window, γ = 0.01, FB averaging and TDM compensation on, azimuth
+    /// ±70° (the paper's Table I), elevation ±25°.
+    pub const fn defaults(samples: usize) -> Self {
+        let last = if samples >= 2 { samples - 2 } else { 0 };
+        Self {
+            range_first: 12,
+            range_last: last as u16,
+            range_window: WindowKind::Blackman,
+            doppler_window: WindowKind::Hann,
+            loading: 0.01,
+            forward_backward: true,
+            tdm_compensation: true,
+            tdm_azimuth_search: 8,
+            azimuth_span_deg: (-70.0, 70.0),
+            elevation_span_deg: (-25.0, 25.0),
+            cfar: CfarParams::DEFAULT,
+            elevation: ElevationParams::DEFAULT,
+        }
+    }
+
+    pub(crate) fn validate(&self, samples: usize, az_bins: usize) -> Result<(), ConfigError> {
+        if self.range_first > self.range_last || usize::from(self.range_last) >= samples {
+            return Err(ConfigError::OutOfRange(Param::RangeWindow));
+        }
+        finite(f64::from(self.loading), Param::Loading)?;
+        if !(self.loading > 0.0) {
+            return Err(ConfigError::OutOfRange(Param::Loading));
+        }
+        let (a0, a1) = self.azimuth_span_deg;
+        span(a0, a1, 89.9, Param::AzimuthSpan)?;
+        let (e0, e1) = self.elevation_span_deg;
+        span(e0, e1, 89.9, Param::ElevationSpan)?;
+        let c = &self.cfar;
+        finite(f64::from(c.quantile), Param::CfarQuantile)?;
+        if !(c.quantile > 0.0 && c.quantile <= 1.0) {
+            return Err(ConfigError::OutOfRange(Param::CfarQuantile));
+        }
+        finite(f64::from(c.threshold_db), Param::CfarThreshold)?;
+        if c.train_range == 0 && c.train_azimuth == 0 {
+            return Err(ConfigError::OutOfRange(Param::CfarWindow));
+        }
+        if c.full_training_cells() > crate::cfar::MAX_TRAINING_CELLS {
+            return Err(ConfigError::OutOfRange(Param::CfarWindow));
+        }
+        if 2 * usize::from(c.edge_skip_azimuth) + 1 > az_bins {
+            return Err(ConfigError::OutOfRange(Param::CfarEdgeSkip));
+        }
+        finite(
+            f64::from(self.elevation.peak_range_db),
+            Param::ElevationPeakRange,
+        )?;
+        if self.elevation.max_peaks == 0
+            || usize::from(self.elevation.max_peaks) > MAX_ELEVATION_PEAKS
+            || self.elevation.peak_range_db < 0.0
+        {
+            return Err(ConfigError::OutOfRange(Param::ElevationPeakRange));
+        }
+        Ok(())
+    }
+}
+
+/// A configuration parameter, named in [`ConfigError`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Param {
+    /// `Waveform::adc_sample_rate_hz`.
+    AdcSampleRate,
+    /// `Waveform::slope_hz_per_s`.
+    Slope,
+    /// `Waveform::start_frequency_hz`.
+    StartFrequency,
+    /// `Waveform::idle_time_s`.
+    IdleTime,
+    /// `Waveform::ramp_end_time_s`.
+    RampEndTime,
+    /// An antenna position.
+    AntennaPosition,
+    /// `AntennaGeometry::f_design_hz`.
+    DesignFrequency,
+    /// `Params::range_first` / `range_last`.
+    RangeWindow,
+    /// `Params::loading`.
+    Loading,
+    /// `Params::azimuth_span_deg`.
+    AzimuthSpan,
+    /// `Params::elevation_span_deg`.
+    ElevationSpan,
+    /// `CfarParams::quantile`.
+    CfarQuantile,
+    /// `CfarParams::threshold_db`.
+    CfarThreshold,
+    /// `CfarParams` guard / training sizes.
+    CfarWindow,
+    /// `CfarParams::edge_skip_azimuth`.
+    CfarEdgeSkip,
+    /// `ElevationParams`.
+    ElevationPeakRange,
+    /// The coupling calibration table.
+    Coupling,
+    /// A grid size (azimuth or elevation bins) too small for peak finding.
+    GridSize,
+}
+
+impl Param {
+    /// The parameter's name as written in configuration files and docs.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Param::AdcSampleRate => "adc_sample_frequency",
+            Param::Slope => "frequency_slope",
+            Param::StartFrequency => "start_frequency",
+            Param::IdleTime => "idle_time",
+            Param::RampEndTime => "ramp_end_time",
+            Param::AntennaPosition => "antenna position",
+            Param::DesignFrequency => "F_design",
+            Param::RangeWindow => "range window (range_first..=range_last)",
+            Param::Loading => "diagonal loading γ",
+            Param::AzimuthSpan => "azimuth span",
+            Param::ElevationSpan => "elevation span",
+            Param::CfarQuantile => "CFAR quantile q",
+            Param::CfarThreshold => "CFAR threshold α",
+            Param::CfarWindow => "CFAR training window",
+            Param::CfarEdgeSkip => "CFAR azimuth edge skip",
+            Param::ElevationPeakRange => "elevation peak rules",
+            Param::Coupling => "coupling calibration",
+            Param::GridSize => "angle grid size",
+        }
+    }
+}
+
+/// Why a configuration was rejected.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ConfigError {
+    /// The parameter is NaN or infinite.
+    NotFinite(Param),
+    /// The parameter is outside its valid range.
+    OutOfRange(Param),
+    /// `TX · RX` does not equal the compiled virtual-antenna count `M`, or `AZ > M`.
+    ArrayShape,
+    /// The lowest-elevation line does not hold the compiled number of azimuth elements.
+    AzimuthRowCount {
+        /// Elements found at the lowest elevation.
+        found: u8,
+        /// Compiled azimuth element count.
+        expected: u8,
+    },
+    /// The azimuth line is not uniformly spaced (forward–backward averaging needs it).
+    AzimuthNotUniform,
+    /// The elements off the azimuth line do not share one elevation.
+    ElevationRowNotFlat,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ConfigError::NotFinite(p) => write!(f, "{} is not a finite number", p.name()),
+            ConfigError::OutOfRange(p) => write!(f, "{} is out of range", p.name()),
+            ConfigError::ArrayShape => {
+                write!(f, "num_tx × num_rx does not match the compiled virtual array")
+            }
+            ConfigError::AzimuthRowCount { found, expected } => write!(
+                f,
+                "antenna geometry: {found} virtual antennas on the azimuth line, expected {expected}"
+            ),
+            ConfigError::AzimuthNotUniform => {
+                write!(f, "antenna geometry: the azimuth line is not uniformly spaced")
+            }
+            ConfigError::ElevationRowNotFlat => write!(
+                f,
+                "antenna geometry: the elements off the azimuth line are not on one elevation row"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for ConfigError {}
+
+fn finite(v: f64, p: Param) -> Result<(), ConfigError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(ConfigError::NotFinite(p))
+    }
+}
+
+fn positive(v: f64, p: Param) -> Result<(), ConfigError> {
+    finite(v, p)?;
+    if v > 0.0 {
+        Ok(())
+    } else {
+        Err(ConfigError::OutOfRange(p))
+    }
+}
+
+fn span(a: f32, b: f32, limit: f32, p: Param) -> Result<(), ConfigError> {
+    finite(f64::from(a), p)?;
+    finite(f64::from(b), p)?;
+    if a < b && a >= -limit && b <= limit {
+        Ok(())
+    } else {
+        Err(ConfigError::OutOfRange(p))
+    }
+}

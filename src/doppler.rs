@@ -1,0 +1,46 @@
+//! Stage 4: Doppler FFT of a beamformed slow-time signal.
+//!
+//! Bin `d` of the `K`-point FFT (natural order, not fftshifted) is the signed bin
+//! `d' = d` for `d < K/2`, else `d − K`, ↔ radial velocity `v = d' · λ / (2·K·T_loop)`,
+//! positive = receding (spec §2).
+
+use num_complex::Complex32;
+
+use crate::fft::fft_in_place;
+
+/// The strongest bin of a slow-time signal, after windowing and FFT.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DopplerPeak {
+    /// Signed bin `d'` in `−K/2 .. K/2`.
+    pub bin: i16,
+    /// `|Y[d]|²` of that bin.
+    pub power: f32,
+}
+
+/// Window `y` in place, FFT it and return its strongest bin.
+pub fn doppler_peak<const K: usize>(y: &mut [Complex32; K], window: &[f32; K]) -> DopplerPeak {
+    for (v, w) in y.iter_mut().zip(window.iter()) {
+        *v *= *w;
+    }
+    fft_in_place(y);
+    let mut best = (0usize, -1.0f32);
+    for (d, v) in y.iter().enumerate() {
+        let p = v.norm_sqr();
+        if p > best.1 {
+            best = (d, p);
+        }
+    }
+    DopplerPeak {
+        bin: signed_bin::<K>(best.0),
+        power: best.1.max(0.0),
+    }
+}
+
+/// Signed Doppler bin of FFT bin `d`.
+pub const fn signed_bin<const K: usize>(d: usize) -> i16 {
+    if d < K / 2 {
+        d as i16
+    } else {
+        d as i16 - K as i16
+    }
+}

@@ -1,0 +1,57 @@
+//! # dbe-radar
+//!
+//! The Digital Beamforming Enhanced (DBE) processing chain of Jiang et al., "Digital
+//! Beamforming Enhanced Radar Odometry" (ICRA 2025), for single-chip 4D FMCW radars with
+//! 3 TX × 4 RX (8 azimuth + 4 elevation virtual antennas), as an allocation-free `no_std`
+//! library fed chirp by chirp:
+//!
+//! range FFT ([`range`]) → Capon azimuth beamforming ([`capon`]) → OS-CFAR on the
+//! range–azimuth map ([`cfar`]) → TDM-MIMO motion compensation → Capon elevation sweep →
+//! Doppler FFT of the Capon-beamformed slow time ([`doppler`]) → points ([`points`]).
+//! [`pipeline`] shows the data flow on one screen.
+//!
+//! Shapes are const generics (see [`presets`]); waveform, geometry and thresholds are
+//! runtime values validated once by [`Dbe::new`]. Processing never allocates and never
+//! panics; a bad frame is a [`FrameError`].
+//!
+//! ```
+//! use dbe_radar::{presets::coloradar as p, ChirpId};
+//!
+//! let dbe = p::dbe().unwrap();
+//! let mut storage: Box<p::CubeStorage> =
+//!     vec![[[Default::default(); p::LOOPS]; p::VIRTUAL]; p::SAMPLES].try_into().unwrap();
+//! let mut cube = p::Cube::new(&mut storage);
+//! let mut work = Box::new(p::Workspace::new());
+//! let mut cloud = Box::new(p::PointCloud::new());
+//! let silence: p::Chirp = [[[0, 0]; p::SAMPLES]; p::RX];
+//! for k in 0..p::LOOPS as u16 {
+//!     for t in 0..p::TX as u8 {
+//!         dbe.push_chirp(&mut cube, ChirpId { loop_index: k, tx_slot: t }, &silence).unwrap();
+//!     }
+//! }
+//! dbe.process(&cube, &mut work, &mut cloud).unwrap();
+//! // An all-zero frame has no positive-definite covariance: every bin is skipped, no points.
+//! assert_eq!(cloud.points().len(), 0);
+//! assert_eq!(cloud.stats.skipped_range_bins, 115);
+//! ```
+#![cfg_attr(not(test), no_std)]
+#![deny(missing_docs)]
+
+pub mod capon;
+pub mod cfar;
+pub mod config;
+pub mod covariance;
+pub mod cube;
+pub mod doppler;
+pub mod fft;
+pub mod pipeline;
+pub mod points;
+pub mod presets;
+pub mod range;
+pub mod window;
+
+pub use config::{AntennaGeometry, ConfigError, Params, Waveform};
+pub use cube::{ChirpId, Cube, FrameError};
+pub use num_complex::Complex32;
+pub use pipeline::{Dbe, Workspace};
+pub use points::{FrameStats, Point, PointCloud};

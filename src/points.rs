@@ -1,0 +1,104 @@
+//! Stage 5 output: the point cloud of one frame and its statistics.
+
+use glam::Vec3;
+
+/// One output point (spec §3 step 5).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Point {
+    /// Position in the radar frame (x forward, y left, z up), m.
+    pub position: Vec3,
+    /// Radial velocity, m/s, positive = receding.
+    pub velocity_mps: f32,
+    /// Capon spectrum power at the point's direction (12-element covariance), dB of
+    /// range-FFT units squared.
+    pub power_db: f32,
+    /// Range–azimuth map power over the CFAR noise level (the order statistic), dB.
+    pub snr_db: f32,
+    /// Range bin.
+    pub range_bin: u16,
+    /// Azimuth grid bin (after TDM refinement, when on).
+    pub azimuth_bin: u16,
+    /// Elevation grid bin.
+    pub elevation_bin: u16,
+    /// Signed Doppler bin, `−K/2 .. K/2`.
+    pub doppler_bin: i16,
+}
+
+/// Per-frame statistics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct FrameStats {
+    /// CFAR detections kept (after overflow handling).
+    pub detections: u32,
+    /// Detections dropped because the detection list was full.
+    pub detection_overflow: u32,
+    /// Points written.
+    pub points: u32,
+    /// Points dropped because the point list was full.
+    pub point_overflow: u32,
+    /// Range bins skipped because their covariance was not positive definite.
+    pub skipped_range_bins: u32,
+    /// Detections that gave no point (no interior elevation peak, or every direction invalid).
+    pub detections_without_point: u32,
+}
+
+/// A fixed-capacity point cloud.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointCloud<const P: usize> {
+    points: [Point; P],
+    len: usize,
+    /// Statistics of the frame that produced the points.
+    pub stats: FrameStats,
+}
+
+impl<const P: usize> PointCloud<P> {
+    /// An empty cloud.
+    pub const fn new() -> Self {
+        Self {
+            points: [Point {
+                position: Vec3::ZERO,
+                velocity_mps: 0.0,
+                power_db: 0.0,
+                snr_db: 0.0,
+                range_bin: 0,
+                azimuth_bin: 0,
+                elevation_bin: 0,
+                doppler_bin: 0,
+            }; P],
+            len: 0,
+            stats: FrameStats {
+                detections: 0,
+                detection_overflow: 0,
+                points: 0,
+                point_overflow: 0,
+                skipped_range_bins: 0,
+                detections_without_point: 0,
+            },
+        }
+    }
+
+    /// The points.
+    pub fn points(&self) -> &[Point] {
+        &self.points[..self.len]
+    }
+
+    pub(crate) fn clear(&mut self) {
+        self.len = 0;
+        self.stats = FrameStats::default();
+    }
+
+    pub(crate) fn push(&mut self, p: Point) {
+        if self.len < P {
+            self.points[self.len] = p;
+            self.len += 1;
+            self.stats.points += 1;
+        } else {
+            self.stats.point_overflow += 1;
+        }
+    }
+}
+
+impl<const P: usize> Default for PointCloud<P> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
