@@ -7,6 +7,14 @@
 //! maximum of its 3×3 neighbourhood (ties broken towards the lower index, so a plateau gives
 //! one detection). Only local maxima are tested, which gives the same detections as testing
 //! every cell at a fraction of the cost.
+//!
+//! Loading floor: diagonal loading `δ_b` of range bin `b` bounds its Capon spectrum from
+//! below, `P(θ) ≥ δ_b / D` (because `(R + δI)⁻¹ ≼ I/δ`), and with a strong target `δ_b` is a
+//! fixed fraction of that target's power. The whole row then sits on a flat ridge whose
+//! ripples are local maxima; training cells from quieter neighbouring rows would put the
+//! order statistic below the ridge and declare the ripples detections. The noise level of a
+//! cell is therefore never taken below its row's floor: `level = max(order statistic,
+//! floor[b])`. Noise-limited rows are unaffected (there `δ_b / D ≪ σ² / D`).
 
 use crate::config::CfarParams;
 
@@ -22,7 +30,7 @@ pub struct Detection {
     pub azimuth_bin: u16,
     /// Capon power of the cell, linear.
     pub power: f32,
-    /// CFAR noise level (the order statistic, before α), linear.
+    /// CFAR noise level (the order statistic or the row's loading floor, before α), linear.
     pub level: f32,
 }
 
@@ -91,9 +99,11 @@ impl<const DET: usize> Default for Detections<DET> {
     }
 }
 
-/// Run OS-CFAR over rows `first..=last` of `map` (linear power, `map[range][azimuth]`).
+/// Run OS-CFAR over rows `first..=last` of `map` (linear power, `map[range][azimuth]`), with
+/// the per-row lower bound `floor` of the noise level (see the module docs).
 pub fn detect<const N: usize, const NAZ: usize, const DET: usize>(
     map: &[[f32; NAZ]; N],
+    floor: &[f32; N],
     first: usize,
     last: usize,
     p: &CfarParams,
@@ -134,7 +144,8 @@ pub fn detect<const N: usize, const NAZ: usize, const DET: usize>(
                 continue;
             }
             let k = ceil_index(p.quantile, n);
-            let (_, &mut level, _) = scratch[..n].select_nth_unstable_by(k, f32::total_cmp);
+            let (_, &mut order, _) = scratch[..n].select_nth_unstable_by(k, f32::total_cmp);
+            let level = order.max(floor[b]);
             if cut > alpha * level {
                 out.push(Detection {
                     range_bin: b as u16,
@@ -203,7 +214,7 @@ mod tests {
             edge_skip_azimuth: 0,
             ..CfarParams::DEFAULT
         };
-        detect(&map, 0, 15, &p, &mut scratch, &mut out);
+        detect(&map, &[0.0; 16], 0, 15, &p, &mut scratch, &mut out);
         let cells: [(u16, u16); 2] = [(4, 0), (8, 10)];
         assert_eq!(out.as_slice().len(), 2);
         for (d, c) in out.as_slice().iter().zip(cells.iter()) {

@@ -61,8 +61,8 @@ pub fn forward_backward<const D: usize>(r: &mut Matrix<D>) {
     }
 }
 
-/// Diagonal loading `R + δ·I`, `δ = γ · tr(R) / D`.
-pub fn load_diagonal<const D: usize>(r: &mut Matrix<D>, gamma: f32) {
+/// Diagonal loading `R + δ·I`, `δ = γ · tr(R) / D`; returns `δ`.
+pub fn load_diagonal<const D: usize>(r: &mut Matrix<D>, gamma: f32) -> f32 {
     let mut trace = 0.0f32;
     for (i, row) in r.iter().enumerate() {
         trace += row[i].re;
@@ -71,6 +71,7 @@ pub fn load_diagonal<const D: usize>(r: &mut Matrix<D>, gamma: f32) {
     for (i, row) in r.iter_mut().enumerate() {
         row[i].re += delta;
     }
+    delta
 }
 
 /// `R' = D·R·Dᴴ` for the diagonal unitary `D = diag(d)`: the covariance of snapshots whose

@@ -36,6 +36,7 @@ const ONE: Complex32 = Complex32::new(1.0, 0.0);
 pub struct Workspace<const N: usize, const M: usize, const NAZ: usize, const DET: usize> {
     cov: [Matrix<M>; N],
     ra: [[f32; NAZ]; N],
+    floor: [f32; N],
     scratch: [f32; MAX_TRAINING_CELLS],
     detections: Detections<DET>,
 }
@@ -46,6 +47,7 @@ impl<const N: usize, const M: usize, const NAZ: usize, const DET: usize> Workspa
         Self {
             cov: [zero::<M>(); N],
             ra: [[0.0; NAZ]; N],
+            floor: [0.0; N],
             scratch: [0.0; MAX_TRAINING_CELLS],
             detections: Detections::new(),
         }
@@ -290,15 +292,21 @@ impl<
         for row in work.ra.iter_mut() {
             *row = [0.0; NAZ];
         }
+        work.floor = [0.0; N];
         for b in first..=last {
-            let (Some(snap), Some(cov), Some(ra)) =
-                (bins.get(b), work.cov.get_mut(b), work.ra.get_mut(b))
-            else {
+            let (Some(snap), Some(cov), Some(ra), Some(floor)) = (
+                bins.get(b),
+                work.cov.get_mut(b),
+                work.ra.get_mut(b),
+                work.floor.get_mut(b),
+            ) else {
                 continue;
             };
             covariance(snap, cov);
             match self.azimuth_capon(cov) {
-                Some(capon) => {
+                Some((capon, delta)) => {
+                    // P(θ) ≥ δ / AZ: the loading floor of this row (see `cfar`).
+                    *floor = delta / AZ as f32;
                     for (p, steer) in ra.iter_mut().zip(self.az_steer.iter()) {
                         *p = capon.power(&azimuth_part::<M, AZ>(steer));
                     }
@@ -310,6 +318,7 @@ impl<
         // Stage 2: OS-CFAR.
         cfar::detect(
             &work.ra,
+            &work.floor,
             first,
             last,
             &self.params.cfar,
@@ -334,14 +343,15 @@ impl<
         Ok(())
     }
 
-    /// Capon solver of the azimuth line's block of `cov` (FB averaging if on, loading).
-    fn azimuth_capon(&self, cov: &Matrix<M>) -> Option<Capon<AZ>> {
+    /// Capon solver of the azimuth line's block of `cov` (FB averaging if on, loading), and
+    /// the loading `δ` it used.
+    fn azimuth_capon(&self, cov: &Matrix<M>) -> Option<(Capon<AZ>, f32)> {
         let mut r = leading_block::<M, AZ>(cov);
         if self.params.forward_backward {
             forward_backward(&mut r);
         }
-        load_diagonal(&mut r, self.params.loading);
-        Capon::new(&r)
+        let delta = load_diagonal(&mut r, self.params.loading);
+        Capon::new(&r).map(|c| (c, delta))
     }
 
     /// Steering vector of all rows for azimuth bin `i`, elevation bin `j`.
@@ -367,7 +377,7 @@ impl<
         let mut r = *cov;
         let mut rot = [ONE; M];
         if self.params.tdm_compensation {
-            let Some(az) = self.azimuth_capon(&r) else {
+            let Some((az, _)) = self.azimuth_capon(&r) else {
                 return;
             };
             let w = az.weight(&azimuth_part::<M, AZ>(&self.az_steer[i]));
@@ -380,13 +390,13 @@ impl<
                 *o = Complex32::from_polar(1.0, per_slot * f32::from(slot));
             }
             rotate_rows(&mut r, &rot);
-            if let Some(az) = self.azimuth_capon(&r) {
+            if let Some((az, _)) = self.azimuth_capon(&r) {
                 i = self.climb_azimuth(&az, i);
             }
         }
 
         // Stage 3: elevation sweep on the full array, no FB averaging.
-        load_diagonal(&mut r, self.params.loading);
+        let _ = load_diagonal(&mut r, self.params.loading);
         let Some(el) = Capon::<M>::new(&r) else {
             return;
         };

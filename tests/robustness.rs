@@ -1,0 +1,267 @@
+//! Bad input: typed errors for bad configuration and bad chirp order, no panic on any data.
+
+mod common;
+
+use common::{id, storage};
+use dbe_radar::config::{CfarParams, Param};
+use dbe_radar::presets::coloradar as p;
+use dbe_radar::{AntennaGeometry, ChirpId, ConfigError, FrameError, Params, Waveform};
+
+fn dbe() -> p::Dbe {
+    p::dbe().expect("defaults are valid")
+}
+
+fn feed(dbe: &p::Dbe, cube: &mut p::Cube<'_>, chirp: impl Fn(usize) -> p::Chirp) {
+    for i in 0..p::LOOPS * p::TX {
+        dbe.push_chirp(cube, id(i, p::TX), &chirp(i))
+            .expect("in order");
+    }
+}
+
+#[test]
+fn config_errors_name_the_parameter() {
+    let w = Waveform::COLORADAR;
+    let g = AntennaGeometry::COLORADAR;
+    let d = Params::defaults(p::SAMPLES);
+    let err = |w, g, params| p::Dbe::new(w, g, params).err();
+    assert_eq!(
+        err(
+            Waveform {
+                slope_hz_per_s: f64::NAN,
+                ..w
+            },
+            g,
+            d
+        ),
+        Some(ConfigError::NotFinite(Param::Slope))
+    );
+    assert_eq!(
+        err(
+            Waveform {
+                adc_sample_rate_hz: 0.0,
+                ..w
+            },
+            g,
+            d
+        ),
+        Some(ConfigError::OutOfRange(Param::AdcSampleRate))
+    );
+    assert_eq!(
+        err(
+            w,
+            g,
+            Params {
+                range_last: p::SAMPLES as u16,
+                ..d
+            }
+        ),
+        Some(ConfigError::OutOfRange(Param::RangeWindow))
+    );
+    assert_eq!(
+        err(w, g, Params { loading: -1.0, ..d }),
+        Some(ConfigError::OutOfRange(Param::Loading))
+    );
+    let wide = CfarParams {
+        train_azimuth: 60,
+        train_range: 20,
+        ..CfarParams::DEFAULT
+    };
+    assert_eq!(
+        err(w, g, Params { cfar: wide, ..d }),
+        Some(ConfigError::OutOfRange(Param::CfarWindow))
+    );
+    // TX1 moved from az 4 to az 5: the azimuth line has a gap.
+    let mut gap = g;
+    gap.tx[1].0 = 5.0;
+    assert_eq!(err(w, gap, d), Some(ConfigError::AzimuthNotUniform));
+    // Every TX at elevation 0: 12 elements on the azimuth line, not 8.
+    let mut flat = g;
+    flat.tx[2] = (8.0, 0.0);
+    assert_eq!(
+        err(w, flat, d),
+        Some(ConfigError::AzimuthRowCount {
+            found: 12,
+            expected: 8
+        })
+    );
+    let msg = ConfigError::NotFinite(Param::Slope).to_string();
+    assert!(msg.contains("frequency_slope"), "{msg}");
+}
+
+#[test]
+fn the_fixture_geometry_puts_tx1_on_the_elevation_row() {
+    let d = p::Dbe::new(
+        Waveform::IWR6843_FIXTURE,
+        AntennaGeometry::IWR6843_FIXTURE,
+        Params::defaults(p::SAMPLES),
+    )
+    .expect("valid");
+    let l = d.layout();
+    // Azimuth line: TX0 (az 0..3) then TX2 (az 4..7); elevation row: TX1 (az 2..5, el 1).
+    assert_eq!(l.row_of, [[0, 1, 2, 3], [8, 9, 10, 11], [4, 5, 6, 7]]);
+    assert_eq!(l.az, [0., 1., 2., 3., 4., 5., 6., 7., 2., 3., 4., 5.]);
+    assert_eq!(l.el, [0., 0., 0., 0., 0., 0., 0., 0., 1., 1., 1., 1.]);
+    assert_eq!(l.slot, [0, 0, 0, 0, 2, 2, 2, 2, 1, 1, 1, 1]);
+}
+
+#[test]
+fn missing_repeated_and_extra_chirps_are_frame_errors() {
+    let d = dbe();
+    let zero: p::Chirp = [[[0, 0]; p::SAMPLES]; p::RX];
+    let mut st = storage();
+    let mut cube = p::Cube::new(&mut st);
+    let mut work = Box::new(p::Workspace::new());
+    let mut cloud = Box::new(p::PointCloud::new());
+
+    // A missing chirp (slot 1 of loop 0 skipped).
+    d.push_chirp(&mut cube, id(0, 3), &zero).unwrap();
+    let got = ChirpId {
+        loop_index: 0,
+        tx_slot: 2,
+    };
+    let expected = ChirpId {
+        loop_index: 0,
+        tx_slot: 1,
+    };
+    assert_eq!(
+        d.push_chirp(&mut cube, got, &zero),
+        Err(FrameError::OutOfOrder { expected, got })
+    );
+    // The frame stays poisoned even if the right chirps follow.
+    d.push_chirp(&mut cube, expected, &zero).unwrap_err();
+    assert_eq!(
+        d.process(&cube, &mut work, &mut cloud),
+        Err(FrameError::OutOfOrder { expected, got })
+    );
+
+    // A repeated chirp.
+    cube.begin_frame();
+    d.push_chirp(&mut cube, id(0, 3), &zero).unwrap();
+    assert!(matches!(
+        d.push_chirp(&mut cube, id(0, 3), &zero),
+        Err(FrameError::OutOfOrder { .. })
+    ));
+
+    // An incomplete frame.
+    cube.begin_frame();
+    d.push_chirp(&mut cube, id(0, 3), &zero).unwrap();
+    assert_eq!(
+        d.process(&cube, &mut work, &mut cloud),
+        Err(FrameError::Incomplete {
+            received: 1,
+            expected: 384
+        })
+    );
+    assert_eq!(cloud.points().len(), 0);
+
+    // One chirp too many.
+    cube.begin_frame();
+    feed(&d, &mut cube, |_| zero);
+    assert_eq!(
+        d.push_chirp(&mut cube, id(0, 3), &zero),
+        Err(FrameError::TooManyChirps)
+    );
+    assert_eq!(
+        d.process(&cube, &mut work, &mut cloud),
+        Err(FrameError::TooManyChirps)
+    );
+}
+
+#[test]
+fn degenerate_frames_do_not_panic() {
+    let d = dbe();
+    let mut st = storage();
+    let mut cube = p::Cube::new(&mut st);
+    let mut work = Box::new(p::Workspace::new());
+    let mut cloud = Box::new(p::PointCloud::new());
+    let kept = u32::from(d.params().range_last - d.params().range_first + 1);
+
+    // All zero: no covariance is positive definite, every bin is skipped and counted.
+    feed(&d, &mut cube, |_| [[[0, 0]; p::SAMPLES]; p::RX]);
+    d.process(&cube, &mut work, &mut cloud).unwrap();
+    assert_eq!(cloud.stats.skipped_range_bins, kept);
+    assert_eq!(cloud.points().len(), 0);
+
+    // Saturated ADC (a constant is pure DC, removed before the FFT): same as zero.
+    cube.begin_frame();
+    feed(&d, &mut cube, |_| {
+        [[[i16::MAX, i16::MIN]; p::SAMPLES]; p::RX]
+    });
+    d.process(&cube, &mut work, &mut cloud).unwrap();
+    assert_eq!(cloud.stats.skipped_range_bins, kept);
+
+    // Full-scale square wave on every channel, alternating sign per chirp.
+    cube.begin_frame();
+    feed(&d, &mut cube, |i| {
+        core::array::from_fn(|_| {
+            core::array::from_fn(|n| {
+                let s = if (n / 4 + i) % 2 == 0 {
+                    i16::MAX
+                } else {
+                    i16::MIN
+                };
+                [s, s]
+            })
+        })
+    });
+    d.process(&cube, &mut work, &mut cloud).unwrap();
+    assert!(cloud.stats.points as usize == cloud.points().len());
+
+    // One hot antenna (TX0/RX2 only): rank-deficient covariance, loading keeps it usable.
+    cube.begin_frame();
+    feed(&d, &mut cube, |i| {
+        core::array::from_fn(|r| {
+            core::array::from_fn(|n| {
+                if i % p::TX == 0 && r == 2 {
+                    [(n as i16 * 97) % 3000, (n as i16 * 31) % 2000]
+                } else {
+                    [0, 0]
+                }
+            })
+        })
+    });
+    d.process(&cube, &mut work, &mut cloud).unwrap();
+    for pt in cloud.points() {
+        assert!(pt.position.is_finite() && pt.power_db.is_finite() && pt.snr_db.is_finite());
+    }
+}
+
+#[test]
+fn detection_and_point_capacities_overflow_gracefully() {
+    use dbe_radar::{PointCloud, Workspace};
+    let d = dbe();
+    // Many targets, room for 2 detections and 1 point.
+    let targets: Vec<common::Target> = (0..6)
+        .map(|i| {
+            common::Target::polar(
+                3.0 + 1.5 * i as f64,
+                -40.0 + 15.0 * i as f64,
+                0.0,
+                0.0,
+                50.0,
+            )
+        })
+        .collect();
+    let chirps = common::synth::<{ p::SAMPLES }, { p::LOOPS }, { p::TX }, { p::RX }>(
+        &Waveform::COLORADAR,
+        &AntennaGeometry::COLORADAR,
+        &targets,
+        10.0,
+        7,
+    );
+    let mut st = storage();
+    let mut cube = p::Cube::new(&mut st);
+    feed(&d, &mut cube, |i| chirps[i]);
+    let mut work = Box::new(Workspace::<
+        { p::SAMPLES },
+        { p::VIRTUAL },
+        { p::AZIMUTH_BINS },
+        2,
+    >::new());
+    let mut cloud = Box::new(PointCloud::<1>::new());
+    d.process(&cube, &mut work, &mut cloud).unwrap();
+    assert_eq!(cloud.stats.detections, 2);
+    assert!(cloud.stats.detection_overflow >= 4, "{:?}", cloud.stats);
+    assert_eq!(cloud.points().len(), 1);
+    assert!(cloud.stats.point_overflow >= 1);
+}
