@@ -1,0 +1,58 @@
+//! Pins the buffer sizes published in memory-layout.md: a change of any buffer breaks this
+//! test until the document is updated with it.
+
+use core::mem::size_of;
+use dbe_radar::cfar::{Detection, MAX_TRAINING_CELLS};
+use dbe_radar::{presets, Complex32, Point};
+
+/// Bytes of one `usize` field (4 on Cortex-M, 8 on a 64-bit host), for the few small
+/// length fields whose size depends on the target.
+const W: usize = size_of::<usize>();
+
+fn round8(x: usize) -> usize {
+    x.div_ceil(8) * 8
+}
+
+#[test]
+fn element_sizes() {
+    assert_eq!(size_of::<Complex32>(), 8);
+    assert_eq!(size_of::<Detection>(), 12);
+    assert_eq!(size_of::<Point>(), 32);
+}
+
+#[test]
+fn coloradar_buffers() {
+    use presets::coloradar as p;
+    // Cube: N · M · K complex f32.
+    assert_eq!(size_of::<p::CubeStorage>(), 128 * 12 * 128 * 8);
+    assert_eq!(size_of::<p::CubeStorage>(), 1_572_864);
+    // Workspace: covariances N·M²·8 + RA map N·NAZ·4 + loading floor N·4
+    //            + CFAR scratch 1024·4 + detections DET·12 (+ length and overflow count).
+    let ws = 128 * 144 * 8 + 128 * 188 * 4 + 128 * 4 + MAX_TRAINING_CELLS * 4 + 128 * 12;
+    assert_eq!(ws, 249_856);
+    assert_eq!(size_of::<p::Workspace>(), round8(ws + W + 4));
+    // Points: P · 32 + length + 6 statistics counters.
+    assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 24));
+    // Configured chain: steering tables NAZ·M·8 + NEL·M·8, windows (N + K)·4, grids
+    // (NAZ + NEL)·4, optional coupling table M·N·8, and small configuration.
+    let tables = 188 * 12 * 8 + 101 * 12 * 8 + (128 + 128) * 4 + (188 + 101) * 4 + 12 * 128 * 8;
+    assert_eq!(tables, 42_212);
+    let dbe = size_of::<p::Dbe>();
+    assert!(dbe >= tables && dbe <= tables + 512, "Dbe is {dbe} bytes");
+}
+
+#[test]
+fn iwr6843_buffers() {
+    use presets::iwr6843 as p;
+    assert_eq!(size_of::<p::CubeStorage>(), 256 * 12 * 64 * 8);
+    assert_eq!(size_of::<p::CubeStorage>(), 1_572_864);
+    let ws = 256 * 144 * 8 + 256 * 188 * 4 + 256 * 4 + MAX_TRAINING_CELLS * 4 + 128 * 12;
+    assert_eq!(ws, 494_080);
+    assert_eq!(size_of::<p::Workspace>(), round8(ws + W + 4));
+    assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 24));
+    let tables = 188 * 12 * 8 + 101 * 12 * 8 + (256 + 64) * 4 + (188 + 101) * 4 + 12 * 256 * 8;
+    assert_eq!(tables, 54_756);
+    let dbe = size_of::<p::Dbe>();
+    assert!(dbe >= tables && dbe <= tables + 512, "Dbe is {dbe} bytes");
+}
+
