@@ -323,7 +323,7 @@ impl Params {
     /// window, Hann Doppler window, γ = 0.01, FB averaging and TDM compensation on, azimuth
     /// ±70° (the paper's Table I), elevation ±25°.
     pub const fn defaults(samples: usize) -> Self {
-        let last = if samples >= 2 { samples - 2 } else { 0 };
+        let last = samples.saturating_sub(2);
         Self {
             range_first: 12,
             range_last: last as u16,

@@ -55,4 +55,3 @@ fn iwr6843_buffers() {
     let dbe = size_of::<p::Dbe>();
     assert!(dbe >= tables && dbe <= tables + 512, "Dbe is {dbe} bytes");
 }
-

@@ -84,6 +84,18 @@ fn single_static_targets_are_recovered_within_one_grid_step() {
         let t = Target::polar(range, az, el, 0.0, 40.0);
         let r = run(&[t], 20.0, seed as u64, Params::defaults(p::SAMPLES));
         assert_recovered(&r, &t);
+        // The RA map exposed for plotting peaks at the detected cell.
+        let map = r.work.range_azimuth();
+        let (mut best, mut cell) = (0.0f32, (0, 0));
+        for (b, row) in map.iter().enumerate() {
+            for (i, &v) in row.iter().enumerate() {
+                if v > best {
+                    (best, cell) = (v, (b, i));
+                }
+            }
+        }
+        let d = r.work.detections()[0];
+        assert_eq!(cell, (usize::from(d.range_bin), usize::from(d.azimuth_bin)));
     }
 }
 
