@@ -1,7 +1,7 @@
 //! Runtime configuration: waveform, antenna geometry and processing parameters.
 //!
 //! Values live at runtime, shapes live in types: the array sizes are the const generics of
-//! [`Config`], everything else is validated once by [`Config::new`] into a typed
+//! [`crate::Dbe`], everything else is validated once by [`crate::Dbe::new`] into a typed
 //! [`ConfigError`] that names the offending parameter. After that the hot path is infallible.
 
 use core::fmt;
