@@ -319,11 +319,19 @@ pub struct Params {
 }
 
 impl Params {
-    /// Defaults for `samples` samples per chirp: range bins `12 ..= N − 2`, Blackman range
+    /// Defaults for `samples` samples per chirp: range bins `12 ..= N − 3`, Blackman range
     /// window, Hann Doppler window, γ = 0.01, FB averaging and TDM compensation on, azimuth
     /// ±70° (the paper's Table I), elevation ±25°.
+    ///
+    /// The last kept bin is `N − 3`, not the spec's `N − 2`: the spectrum of a Blackman window
+    /// spans bins 0, ±1, ±2 (coefficients 0.42, 0.25, 0.04), so whatever sits at DC before the
+    /// window — the ADC's offset, and what DC removal takes out of every off-bin target —
+    /// lands in bins `N − 2` and `N − 1` (negative frequencies wrap with complex sampling).
+    /// Bin `N − 2` carries −52…−60 dB of every target (measured for targets at bins 13.6 to
+    /// 48.5), so a target 60 dB above the noise leaves a ghost there; bin `N − 3` is below
+    /// −78 dB. Bins `0..12` are excluded for the same reason and for TX–RX coupling.
     pub const fn defaults(samples: usize) -> Self {
-        let last = samples.saturating_sub(2);
+        let last = samples.saturating_sub(3);
         Self {
             range_first: 12,
             range_last: last as u16,

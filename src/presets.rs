@@ -49,6 +49,22 @@ pub mod coloradar {
             Params::defaults(SAMPLES),
         )
     }
+
+    /// The FFT baseline chain (spec §4) with the same sizes and grids.
+    pub type FftChain =
+        crate::FftChain<SAMPLES, LOOPS, TX, RX, VIRTUAL, AZIMUTH, AZIMUTH_BINS, ELEVATION_BINS>;
+    /// The FFT chain's workspace (range–Doppler map `SAMPLES·LOOPS·4` bytes).
+    pub type FftWorkspace = crate::FftWorkspace<SAMPLES, LOOPS, DETECTIONS>;
+
+    /// The FFT chain with ColoRadar's waveform, geometry and defaults
+    /// ([`crate::FftParams::defaults`]).
+    pub fn fft_chain() -> Result<FftChain, crate::ConfigError> {
+        FftChain::new(
+            Waveform::COLORADAR,
+            AntennaGeometry::COLORADAR,
+            crate::FftParams::defaults(SAMPLES),
+        )
+    }
 }
 
 /// The TI IWR6843 + DCA1000 fixture: 256 samples, 64 loops, 3 TX × 4 RX.
@@ -96,6 +112,22 @@ pub mod iwr6843 {
             Waveform::IWR6843_FIXTURE,
             AntennaGeometry::IWR6843_FIXTURE,
             Params::defaults(SAMPLES),
+        )
+    }
+
+    /// The FFT baseline chain (spec §4) with the same sizes and grids.
+    pub type FftChain =
+        crate::FftChain<SAMPLES, LOOPS, TX, RX, VIRTUAL, AZIMUTH, AZIMUTH_BINS, ELEVATION_BINS>;
+    /// The FFT chain's workspace (range–Doppler map `SAMPLES·LOOPS·4` bytes).
+    pub type FftWorkspace = crate::FftWorkspace<SAMPLES, LOOPS, DETECTIONS>;
+
+    /// The FFT chain with the fixture's (partly assumed) waveform, inferred geometry and
+    /// defaults ([`crate::FftParams::defaults`]).
+    pub fn fft_chain() -> Result<FftChain, crate::ConfigError> {
+        FftChain::new(
+            Waveform::IWR6843_FIXTURE,
+            AntennaGeometry::IWR6843_FIXTURE,
+            crate::FftParams::defaults(SAMPLES),
         )
     }
 }

@@ -173,12 +173,17 @@ fn noise_only_frames_give_few_points() {
     }
 }
 
-/// A target 56 dB above the noise after the range FFT lifts its whole range row to the
-/// diagonal-loading floor; the ripples of that ridge must not become points.
+/// A target 56 dB (amplitude 2000) or 68 dB (8000) above the noise after the range FFT lifts
+/// its whole range row to the diagonal-loading floor, and leaks through DC removal into the
+/// bins around DC; neither the ridge's ripples nor the leakage may become points.
 #[test]
 fn a_strong_target_gives_no_ridge_of_false_points() {
-    for (seed, az) in [(50u64, 12.0), (51, -40.0), (52, 60.0)] {
-        let t = Target::polar(6.0, az, 9.0, 0.0, 2000.0);
+    for (seed, az, amp) in [
+        (50u64, 12.0, 2000.0),
+        (51, -40.0, 8000.0),
+        (52, 60.0, 8000.0),
+    ] {
+        let t = Target::polar(6.0, az, 9.0, 0.0, amp);
         let r = run(&[t], 20.0, seed, Params::defaults(p::SAMPLES));
         assert_recovered(&r, &t);
         for pt in r.cloud.points() {

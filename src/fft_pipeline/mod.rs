@@ -1,0 +1,639 @@
+//! The FFT baseline chain (spec §4): the classic single-chip processing the paper compares
+//! DBE against, on the same cube and with the same [`Point`] output.
+//!
+//! ```text
+//! per chirp  push_chirp : DC removal, window, range FFT ──▶ Cube[bin][row][loop]   (as Dbe)
+//! per frame  process    : for each kept range bin b, for each row m
+//!                            K-point scratch ← window · cube[b][m]; FFT
+//!                            RD[b][d] += |scratch[d]|²                  (non-coherent sum)
+//!                         CA- or OS-CFAR on RD (Doppler wrapped) + 3×3 local max
+//!                         per detection (b, d):
+//!                            x_m = Σ_k w_k·cube[b][m][k]·e^{−j2πdk/K}   (single-bin DFT)
+//!                            x_m ·= e^{−j·4π·v·t_m·Tc/λ}               (TDM, t_m = slot of m)
+//!                            azimuth: beamscan |aᴴx|² of the line on the μ grid → peak i
+//!                            elevation: ψ = arg Σ x_line(a)·x_el(a)*, ν = ψ / (κ·Δel)
+//!                            drop μ²+ν² ≥ 1, else Point
+//! ```
+//!
+//! # Input
+//!
+//! The cube is the DBE chain's [`Cube`]: [`FftChain::push_chirp`] is the same ingestion as
+//! [`crate::Dbe::push_chirp`] (DC removal, range window, unnormalised range FFT, optional
+//! coupling subtraction, rows in [`ArrayLayout`] order). The row order depends only on the
+//! antenna geometry, so a cube filled by a `Dbe` with the same geometry and range window is a
+//! valid input too: both chains can run on one cube, which is how they are compared.
+//!
+//! # Memory and layout
+//!
+//! The range–Doppler (RD) map is the only frame-sized buffer of this chain: `N · K` `f32` in
+//! [`FftWorkspace`] (`N·K·4` bytes: 64 KiB for ColoRadar, 64 KiB for the IWR6843 fixture).
+//! No Doppler cube is kept. The Doppler FFTs run per range bin and row into one `K`-point
+//! scratch on the stack (`K·8` bytes), which is accumulated into the RD row and discarded:
+//! each of the `(range_last − range_first + 1) · M` Doppler FFTs is computed exactly once.
+//! After the CFAR, a detection needs the complex Doppler value of its cell for every row;
+//! that is one DFT bin per row, recomputed from the cube as a `K`-term sum against a
+//! `K`-entry twiddle table (`M·K` complex multiply–adds per detection, 1,536 for ColoRadar,
+//! less than four 128-point FFTs). Keeping the Doppler spectra instead would cost `N·M·K·8`
+//! bytes (1.5 MiB) or transforming the cube in place, which would destroy the range-FFT
+//! cube the DBE chain needs; recomputing 12 FFTs per detected range bin would cost
+//! `12 · (K/2)·log₂K` butterflies, more than the single bins unless a range bin holds more
+//! than three detections.
+//!
+//! # Detection
+//!
+//! 2-D CFAR on the RD map ([`rd_cfar`]): cell averaging by default (the classic chain, as TI's
+//! mmWave SDK `CFAR-CA`), ordered statistic selectable; the Doppler axis wraps (it is
+//! periodic, and the 0 m/s ridge of static clutter sits at the FFT's wrap), the range axis is
+//! truncated at the processed window; a 3×3 local maximum keeps one detection per target.
+//!
+//! # Angles
+//!
+//! Azimuth is a beamscan (Bartlett, the DFT of the 8-element line without taper) evaluated
+//! on the same `NAZ`-bin μ grid as the DBE chain (±70°, 188 bins by default), so both chains
+//! report on identical bins: [`Point::azimuth_bin`] means the same angle in both clouds.
+//! This is the only azimuth estimator offered. A 64-point zero-padded FFT would be cheaper
+//! (192 butterflies vs `NAZ·AZ` = 1,504 multiply–adds per detection, both small next to the
+//! frame's Doppler FFTs) but samples μ every `2π/(64·κ)` ≈ 0.031, i.e. 1.8° at boresight and
+//! 5.2° at 70°, while the default grid steps 140°/187 = 0.75° everywhere; and its bins would
+//! not line up with the DBE chain's. A peak at either end of the grid means the target lies
+//! outside the span: the detection gives no point.
+//!
+//! Elevation is the phase of `Σ x_line(a) · conj(x_el(a))` over the pairs of an
+//! elevation-row element and the azimuth-line element at the same azimuth position `a`
+//! (ColoRadar: elevation row az 2..5 at el 1, paired with line elements az 2..5). With the
+//! spec §2 steering vector each product is `|s|²·e^{jκ·ν·Δel}`, so `ν = ψ / (κ·Δel)`,
+//! unambiguous for `|ν| < π/(κ·Δel)` (0.99 for ColoRadar). ν is continuous; the point's
+//! position uses it as is and [`Point::elevation_bin`] is only the nearest bin of the DBE
+//! chain's `NEL`-bin elevation grid, clamped to its ends (an elevation outside the span is
+//! still reported, at its true angle). Accuracy: with per-element SNR ρ of the detection
+//! cell and `P` pairs, `σ_ν = sqrt(1/(P·ρ) + 1/(2·P·ρ²)) / (κ·Δel)`, e.g. 0.028 (1.6° at
+//! boresight) at ρ = 15 dB for ColoRadar; `tests/fft_pipeline.rs` derives it and checks it.
+//!
+//! TDM-MIMO compensation multiplies row `m` (TX slot `t_m`) by `exp(−j·4π·v·t_m·Tc/λ)` with
+//! the detection's Doppler `v = d'·λ/(2·K·TX·Tc)`, i.e. `exp(−j·2π·d'·t_m/(K·TX))`. Without
+//! it a moving target's slot-dependent phase biases both angles: for ColoRadar the elevation
+//! row (slot 2) is paired with line elements of slots 0 and 1, so ν is off by about
+//! `−2π·f·1.5/(K·TX·κ·Δel)` (f the Doppler in bins): −0.20 (−11.5°) at 1 m/s.
+//!
+//! # Output
+//!
+//! One point per detection: `x, y, z` from the detection's range bin, the grid μ and the
+//! continuous ν (spec §2); velocity `d'·λ/(2·K·T_loop)`; `power_db` = 10·log10 of the RD
+//! power (sum over the `M` rows of `|X|²`, unnormalised range and Doppler FFTs of ADC units,
+//! so not comparable in absolute terms with the DBE chain's Capon power); `snr_db` = RD power
+//! over the CFAR noise level; bins as in the DBE chain. [`FrameStats::skipped_range_bins`]
+//! is always 0 here (nothing can fail per range bin).
+//!
+//! [`FrameStats::skipped_range_bins`]: crate::FrameStats::skipped_range_bins
+
+pub mod rd_cfar;
+
+use num_complex::Complex32;
+
+pub use rd_cfar::{CfarKind, RdCfarParams, RdDetection, RdDetections};
+
+use crate::cfar::MAX_TRAINING_CELLS;
+use crate::config::{AntennaGeometry, ArrayLayout, ConfigError, Param, Params, Waveform};
+use crate::cube::{ChirpId, Cube, FrameError};
+use crate::fft::fft_in_place;
+use crate::points::{Point, PointCloud};
+use crate::range::RangeFft;
+use crate::window::WindowKind;
+
+const ZERO: Complex32 = Complex32::new(0.0, 0.0);
+
+/// Processing parameters of the FFT chain (defaults of spec §4 and the DBE chain's windows).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FftParams {
+    /// First range bin processed (inclusive).
+    pub range_first: u16,
+    /// Last range bin processed (inclusive); at most `N − 1`.
+    pub range_last: u16,
+    /// Range window applied before the range FFT (ingestion, as the DBE chain).
+    pub range_window: WindowKind,
+    /// Slow-time window applied before the Doppler FFT (default Hann).
+    pub doppler_window: WindowKind,
+    /// TDM-MIMO phase compensation of each detection before the angle stages (default on).
+    pub tdm_compensation: bool,
+    /// Azimuth grid: first and last angle, degrees (the grid size is a const generic).
+    pub azimuth_span_deg: (f32, f32),
+    /// Elevation grid used to label points with the nearest elevation bin, degrees.
+    pub elevation_span_deg: (f32, f32),
+    /// Detection parameters.
+    pub cfar: RdCfarParams,
+}
+
+impl FftParams {
+    /// Defaults for `samples` samples per chirp: range bins `12 ..= N − 3`, Blackman range and
+    /// Hann Doppler windows, TDM compensation on, azimuth ±70°, elevation ±25° (all as the
+    /// DBE chain's [`Params::defaults`]), CA-CFAR ([`RdCfarParams::CA_DEFAULT`]).
+    pub const fn defaults(samples: usize) -> Self {
+        Self::from_dbe(&Params::defaults(samples))
+    }
+
+    /// The FFT chain matching a DBE configuration: same range window and bins, Doppler
+    /// window, TDM switch and angle grids (so both clouds use identical bins), default CFAR.
+    pub const fn from_dbe(p: &Params) -> Self {
+        Self {
+            range_first: p.range_first,
+            range_last: p.range_last,
+            range_window: p.range_window,
+            doppler_window: p.doppler_window,
+            tdm_compensation: p.tdm_compensation,
+            azimuth_span_deg: p.azimuth_span_deg,
+            elevation_span_deg: p.elevation_span_deg,
+            cfar: RdCfarParams::CA_DEFAULT,
+        }
+    }
+
+    fn validate(&self, samples: usize, loops: usize) -> Result<(), ConfigError> {
+        if self.range_first > self.range_last || usize::from(self.range_last) >= samples {
+            return Err(ConfigError::OutOfRange(Param::RangeWindow));
+        }
+        let (a0, a1) = self.azimuth_span_deg;
+        span(a0, a1, Param::AzimuthSpan)?;
+        let (e0, e1) = self.elevation_span_deg;
+        span(e0, e1, Param::ElevationSpan)?;
+        let c = &self.cfar;
+        if let CfarKind::OrderStatistic { quantile } = c.kind {
+            finite(quantile, Param::CfarQuantile)?;
+            if !(quantile > 0.0 && quantile <= 1.0) {
+                return Err(ConfigError::OutOfRange(Param::CfarQuantile));
+            }
+        }
+        finite(c.threshold_db, Param::CfarThreshold)?;
+        let doppler_extent = 2 * (usize::from(c.guard_doppler) + usize::from(c.train_doppler)) + 1;
+        if (c.train_range == 0 && c.train_doppler == 0)
+            || doppler_extent > loops
+            || c.full_training_cells() > MAX_TRAINING_CELLS
+        {
+            return Err(ConfigError::OutOfRange(Param::CfarWindow));
+        }
+        Ok(())
+    }
+}
+
+/// Mutable per-frame state of the FFT chain: the range–Doppler map, the CFAR scratch and the
+/// detection list. Construct it once (it is `const`), reuse it every frame.
+#[derive(Clone, Debug)]
+pub struct FftWorkspace<const N: usize, const K: usize, const DET: usize> {
+    rd: [[f32; K]; N],
+    scratch: [f32; MAX_TRAINING_CELLS],
+    detections: RdDetections<DET>,
+}
+
+impl<const N: usize, const K: usize, const DET: usize> FftWorkspace<N, K, DET> {
+    /// A zeroed workspace.
+    pub const fn new() -> Self {
+        Self {
+            rd: [[0.0; K]; N],
+            scratch: [0.0; MAX_TRAINING_CELLS],
+            detections: RdDetections::new(),
+        }
+    }
+
+    /// The range–Doppler map of the last frame: `rd[range bin][d]`, `d` the natural FFT index
+    /// (bin 0 = 0 m/s, `d ≥ K/2` negative, not fftshifted), value `Σ_m |X_m[d]|²` over the
+    /// `M` rows in (range-FFT units)². Rows outside the processed range window are zero.
+    pub fn range_doppler(&self) -> &[[f32; K]; N] {
+        &self.rd
+    }
+
+    /// The CFAR detections of the last frame.
+    pub fn detections(&self) -> &[RdDetection] {
+        self.detections.as_slice()
+    }
+}
+
+impl<const N: usize, const K: usize, const DET: usize> Default for FftWorkspace<N, K, DET> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The configured FFT chain: parameters and precomputed tables (`&self` only, never mutated
+/// by processing).
+///
+/// Const generics as [`crate::Dbe`]: `N` samples per chirp, `K` loops, `TX`, `RX`,
+/// `M = TX·RX` virtual antennas of which `AZ` form the azimuth line, `NAZ` azimuth grid bins,
+/// `NEL` elevation grid bins (used only to label points).
+///
+/// ```
+/// use dbe_radar::{presets::coloradar as p, ChirpId};
+///
+/// let chain = p::fft_chain().unwrap();
+/// let mut storage: Box<p::CubeStorage> =
+///     vec![[[Default::default(); p::LOOPS]; p::VIRTUAL]; p::SAMPLES].try_into().unwrap();
+/// let mut cube = p::Cube::new(&mut storage);
+/// let mut work = Box::new(p::FftWorkspace::new());
+/// let mut cloud = Box::new(p::PointCloud::new());
+/// let silence: p::Chirp = [[[0, 0]; p::SAMPLES]; p::RX];
+/// for k in 0..p::LOOPS as u16 {
+///     for t in 0..p::TX as u8 {
+///         chain.push_chirp(&mut cube, ChirpId { loop_index: k, tx_slot: t }, &silence).unwrap();
+///     }
+/// }
+/// chain.process(&cube, &mut work, &mut cloud).unwrap();
+/// // An all-zero frame has an all-zero range–Doppler map: no detection, no point.
+/// assert_eq!(work.range_doppler()[40][0], 0.0);
+/// assert_eq!(cloud.stats.detections, 0);
+/// ```
+#[derive(Clone, Debug)]
+pub struct FftChain<
+    const N: usize,
+    const K: usize,
+    const TX: usize,
+    const RX: usize,
+    const M: usize,
+    const AZ: usize,
+    const NAZ: usize,
+    const NEL: usize,
+> {
+    waveform: Waveform,
+    geometry: AntennaGeometry<TX, RX>,
+    params: FftParams,
+    layout: ArrayLayout<TX, RX, M>,
+    coupling: Option<[[Complex32; N]; M]>,
+    range: RangeFft<N>,
+    doppler_window: [f32; K],
+    /// `exp(−j·2π·k/K)`.
+    twiddle: [Complex32; K],
+    az_mu: [f32; NAZ],
+    /// `conj(a_m(μ_i)) = exp(+j·κ·μ_i·az_m)` for the azimuth line.
+    az_beam: [[Complex32; AZ]; NAZ],
+    /// `(line row, elevation row)` pairs at the same azimuth position; the first
+    /// `pair_count` are valid.
+    pairs: [(u8, u8); M],
+    pair_count: usize,
+    /// `κ · Δel`: elevation phase per unit of ν.
+    kappa_del: f32,
+    range_bin_m: f32,
+    doppler_bin_mps: f32,
+}
+
+impl<
+        const N: usize,
+        const K: usize,
+        const TX: usize,
+        const RX: usize,
+        const M: usize,
+        const AZ: usize,
+        const NAZ: usize,
+        const NEL: usize,
+    > FftChain<N, K, TX, RX, M, AZ, NAZ, NEL>
+{
+    /// Validate the configuration and precompute windows, twiddles and steering tables.
+    ///
+    /// Besides [`crate::Dbe::new`]'s checks, at least one elevation-row element must share
+    /// its azimuth position with an azimuth-line element, else
+    /// `ConfigError::OutOfRange(Param::AntennaPosition)`.
+    pub fn new(
+        waveform: Waveform,
+        geometry: AntennaGeometry<TX, RX>,
+        params: FftParams,
+    ) -> Result<Self, ConfigError> {
+        const {
+            assert!(M == TX * RX, "M must equal TX · RX");
+            assert!(AZ >= 2 && AZ < M, "the azimuth line needs 2..M elements");
+            assert!(N.is_power_of_two() && K.is_power_of_two());
+            assert!(N <= u16::MAX as usize && K <= i16::MAX as usize);
+            assert!(NAZ <= u16::MAX as usize && NEL <= u16::MAX as usize);
+        };
+        waveform.validate()?;
+        let layout = ArrayLayout::new(&geometry, AZ)?;
+        params.validate(N, K)?;
+        if NAZ < 3 || NEL < 3 {
+            return Err(ConfigError::OutOfRange(Param::GridSize));
+        }
+        let mut pairs = [(0u8, 0u8); M];
+        let mut pair_count = 0;
+        for e in AZ..M {
+            if let Some(a) = (0..AZ).find(|&a| (layout.az[a] - layout.az[e]).abs() <= 1e-3) {
+                pairs[pair_count] = (a as u8, e as u8);
+                pair_count += 1;
+            }
+        }
+        // ArrayLayout puts the line at the lowest elevation and the rest on one row above it.
+        let del = layout.el[AZ];
+        if pair_count == 0 || !(del > 0.0) {
+            return Err(ConfigError::OutOfRange(Param::AntennaPosition));
+        }
+        let fc = waveform.center_frequency_hz(N);
+        let kappa = core::f64::consts::PI * fc / geometry.f_design_hz;
+        let az_mu = sine_grid::<NAZ>(params.azimuth_span_deg);
+        let mut az_beam = [[ZERO; AZ]; NAZ];
+        for (row, mu) in az_beam.iter_mut().zip(az_mu.iter()) {
+            for (a, pos) in row.iter_mut().zip(layout.az.iter()) {
+                *a = Complex32::from_polar(1.0, kappa as f32 * mu * pos);
+            }
+        }
+        let mut twiddle = [ZERO; K];
+        for (k, t) in twiddle.iter_mut().enumerate() {
+            let ph = -core::f64::consts::TAU * k as f64 / K as f64;
+            *t = Complex32::new(libm::cos(ph) as f32, libm::sin(ph) as f32);
+        }
+        Ok(Self {
+            waveform,
+            geometry,
+            params,
+            layout,
+            coupling: None,
+            range: RangeFft::new(params.range_window),
+            doppler_window: params.doppler_window.coefficients(),
+            twiddle,
+            az_mu,
+            az_beam,
+            pairs,
+            pair_count,
+            kappa_del: (kappa * f64::from(del)) as f32,
+            range_bin_m: waveform.range_bin_m(N) as f32,
+            doppler_bin_mps: waveform.doppler_bin_mps(N, K, TX) as f32,
+        })
+    }
+
+    /// Attach a coupling calibration in data order `[tx][rx][range bin]`, subtracted from the
+    /// range-FFT output of every chirp, exactly as [`crate::Dbe::with_coupling`].
+    pub fn with_coupling(
+        mut self,
+        coupling: &[[&[Complex32]; RX]; TX],
+    ) -> Result<Self, ConfigError> {
+        let mut table = [[ZERO; N]; M];
+        for (t, per_rx) in coupling.iter().enumerate() {
+            for (r, bins) in per_rx.iter().enumerate() {
+                if bins.len() > N {
+                    return Err(ConfigError::OutOfRange(Param::Coupling));
+                }
+                let row = usize::from(self.layout.row_of[t][r]);
+                for (dst, src) in table[row].iter_mut().zip(bins.iter()) {
+                    if !(src.re.is_finite() && src.im.is_finite()) {
+                        return Err(ConfigError::NotFinite(Param::Coupling));
+                    }
+                    *dst = *src;
+                }
+            }
+        }
+        self.coupling = Some(table);
+        Ok(self)
+    }
+
+    /// The waveform.
+    pub fn waveform(&self) -> &Waveform {
+        &self.waveform
+    }
+
+    /// The antenna geometry.
+    pub fn geometry(&self) -> &AntennaGeometry<TX, RX> {
+        &self.geometry
+    }
+
+    /// The processing parameters.
+    pub fn params(&self) -> &FftParams {
+        &self.params
+    }
+
+    /// The cube row order derived from the geometry (identical to the DBE chain's).
+    pub fn layout(&self) -> &ArrayLayout<TX, RX, M> {
+        &self.layout
+    }
+
+    /// Direction cosine μ = sin φ of each azimuth grid bin (identical to the DBE chain's).
+    pub fn azimuth_grid(&self) -> &[f32; NAZ] {
+        &self.az_mu
+    }
+
+    /// The `(azimuth-line row, elevation row)` pairs the elevation estimate uses.
+    pub fn elevation_pairs(&self) -> &[(u8, u8)] {
+        &self.pairs[..self.pair_count]
+    }
+
+    /// Metres per range bin.
+    pub fn range_bin_m(&self) -> f32 {
+        self.range_bin_m
+    }
+
+    /// m/s per Doppler bin.
+    pub fn doppler_bin_mps(&self) -> f32 {
+        self.doppler_bin_mps
+    }
+
+    /// Ingest one chirp exactly as [`crate::Dbe::push_chirp`]: `chirp[rx][sample] = [I, Q]`
+    /// of TX slot `id.tx_slot` in loop `id.loop_index`, in TDM order; any other chirp is not
+    /// stored and makes the frame an error until [`Cube::begin_frame`].
+    pub fn push_chirp(
+        &self,
+        cube: &mut Cube<'_, N, M, K>,
+        id: ChirpId,
+        chirp: &[[[i16; 2]; N]; RX],
+    ) -> Result<(), FrameError> {
+        let Some(k) = cube.accept(id, TX) else {
+            return cube.status(TX).and(Err(FrameError::TooManyChirps));
+        };
+        let Some(rows) = self.layout.row_of.get(usize::from(id.tx_slot)) else {
+            return Ok(());
+        };
+        let mut spectrum = [ZERO; N];
+        for (samples, &row) in chirp.iter().zip(rows.iter()) {
+            let row = usize::from(row);
+            self.range.process(samples, &mut spectrum);
+            if let Some(c) = self.coupling.as_ref().and_then(|c| c.get(row)) {
+                for (s, c) in spectrum.iter_mut().zip(c.iter()) {
+                    *s -= *c;
+                }
+            }
+            for (b, v) in spectrum.iter().enumerate() {
+                cube.set(b, row, k, *v);
+            }
+        }
+        Ok(())
+    }
+
+    /// Process a complete frame into `out`. Fails only when the cube is not a complete,
+    /// in-order frame; never panics. The workspace keeps the range–Doppler map and the
+    /// detections for inspection.
+    pub fn process<const DET: usize, const P: usize>(
+        &self,
+        cube: &Cube<'_, N, M, K>,
+        work: &mut FftWorkspace<N, K, DET>,
+        out: &mut PointCloud<P>,
+    ) -> Result<(), FrameError> {
+        out.clear();
+        cube.status(TX)?;
+        let first = usize::from(self.params.range_first);
+        let last = usize::from(self.params.range_last).min(N - 1);
+        let bins = cube.bins();
+
+        // Stage 1: Doppler FFT per range bin and row into one scratch, non-coherent sum.
+        for row in work.rd.iter_mut() {
+            *row = [0.0; K];
+        }
+        let mut buf = [ZERO; K];
+        for (snap, rd) in bins
+            .iter()
+            .zip(work.rd.iter_mut())
+            .take(last + 1)
+            .skip(first)
+        {
+            for x in snap.iter() {
+                for ((o, v), w) in buf.iter_mut().zip(x.iter()).zip(self.doppler_window.iter()) {
+                    *o = *v * *w;
+                }
+                fft_in_place(&mut buf);
+                for (p, v) in rd.iter_mut().zip(buf.iter()) {
+                    *p += v.norm_sqr();
+                }
+            }
+        }
+
+        // Stage 2: CFAR on the range–Doppler map.
+        rd_cfar::detect(
+            &work.rd,
+            first,
+            last,
+            &self.params.cfar,
+            &mut work.scratch,
+            &mut work.detections,
+        );
+        out.stats.detections = work.detections.as_slice().len() as u32;
+        out.stats.detection_overflow = work.detections.overflow;
+
+        // Stage 3: angles and a point per detection.
+        for det in work.detections.as_slice() {
+            let before = out.stats.points + out.stats.point_overflow;
+            if let Some(snap) = bins.get(usize::from(det.range_bin)) {
+                self.resolve(det, snap, out);
+            }
+            if out.stats.points + out.stats.point_overflow == before {
+                out.stats.detections_without_point += 1;
+            }
+        }
+        Ok(())
+    }
+
+    /// The windowed Doppler bin `d` (natural index) of every row, TDM-compensated when on.
+    fn doppler_cell(&self, snap: &[[Complex32; K]; M], d: usize, signed: i16) -> [Complex32; M] {
+        let mut x = [ZERO; M];
+        for (o, row) in x.iter_mut().zip(snap.iter()) {
+            let mut acc = ZERO;
+            for (k, (v, w)) in row.iter().zip(self.doppler_window.iter()).enumerate() {
+                // (d·k) mod K: K is a power of two.
+                acc += *v * *w * self.twiddle[(d * k) & (K - 1)];
+            }
+            *o = acc;
+        }
+        if self.params.tdm_compensation {
+            // exp(−j·4π·v·t·Tc/λ) with v = d'·λ/(2·K·TX·Tc) is exp(−j·2π·d'·t/(K·TX)).
+            let per_slot = -core::f32::consts::TAU * f32::from(signed) / (K * TX) as f32;
+            for (v, &slot) in x.iter_mut().zip(self.layout.slot.iter()) {
+                *v *= Complex32::from_polar(1.0, per_slot * f32::from(slot));
+            }
+        }
+        x
+    }
+
+    /// Azimuth, elevation and the point of one detection.
+    fn resolve<const P: usize>(
+        &self,
+        det: &RdDetection,
+        snap: &[[Complex32; K]; M],
+        out: &mut PointCloud<P>,
+    ) {
+        let d = (i32::from(det.doppler_bin).rem_euclid(K as i32)) as usize;
+        let x = self.doppler_cell(snap, d, det.doppler_bin);
+
+        // Azimuth: beamscan of the line on the μ grid; an end-of-grid peak is out of span.
+        let mut best = (0usize, -1.0f32);
+        for (i, beam) in self.az_beam.iter().enumerate() {
+            let mut s = ZERO;
+            for (b, v) in beam.iter().zip(x.iter()) {
+                s += b * v;
+            }
+            let p = s.norm_sqr();
+            if p > best.1 {
+                best = (i, p);
+            }
+        }
+        let i = best.0;
+        if i == 0 || i + 1 >= NAZ {
+            return;
+        }
+
+        // Elevation: phase of the pair products (line element × conj(elevation element)).
+        let mut z = ZERO;
+        for &(a, e) in self.elevation_pairs() {
+            if let (Some(xa), Some(xe)) = (x.get(usize::from(a)), x.get(usize::from(e))) {
+                z += xa * xe.conj();
+            }
+        }
+        if !(z.norm_sqr() > 0.0) {
+            return;
+        }
+        let nu = libm::atan2f(z.im, z.re) / self.kappa_del;
+        let mu = self.az_mu[i];
+        let cos2 = 1.0 - mu * mu - nu * nu;
+        if !(cos2 > 0.0) {
+            return;
+        }
+        let range = f32::from(det.range_bin) * self.range_bin_m;
+        out.push(Point {
+            position: glam::Vec3::new(range * libm::sqrtf(cos2), -range * mu, range * nu),
+            velocity_mps: f32::from(det.doppler_bin) * self.doppler_bin_mps,
+            power_db: 10.0 * libm::log10f(det.power.max(f32::MIN_POSITIVE)),
+            snr_db: ratio_db(det.power, det.level),
+            range_bin: det.range_bin,
+            azimuth_bin: i as u16,
+            elevation_bin: self.elevation_bin(nu),
+            doppler_bin: det.doppler_bin,
+        });
+    }
+
+    /// The nearest bin of the `NEL`-bin elevation grid (linear in θ over the span, as the
+    /// DBE chain's), clamped to its ends.
+    fn elevation_bin(&self, nu: f32) -> u16 {
+        let (e0, e1) = self.params.elevation_span_deg;
+        let theta = libm::asinf(nu.clamp(-1.0, 1.0)).to_degrees();
+        let step = (e1 - e0) / (NEL - 1) as f32;
+        let j = libm::roundf((theta - e0) / step);
+        // `as` saturates (NaN → 0); the clamp keeps the index on the grid.
+        (j.max(0.0) as usize).min(NEL - 1) as u16
+    }
+}
+
+/// `10·log10(a / b)`, finite for positive inputs.
+fn ratio_db(a: f32, b: f32) -> f32 {
+    if a > 0.0 && b > 0.0 {
+        10.0 * libm::log10f(a / b)
+    } else {
+        0.0
+    }
+}
+
+/// `sin` of `L` angles evenly spaced over `span` degrees (both ends included, as linspace);
+/// the same computation as the DBE chain's grid, so both produce identical `f32` values.
+fn sine_grid<const L: usize>(span: (f32, f32)) -> [f32; L] {
+    let mut g = [0.0f32; L];
+    let (a, b) = (f64::from(span.0), f64::from(span.1));
+    let step = if L > 1 { (b - a) / (L - 1) as f64 } else { 0.0 };
+    for (i, v) in g.iter_mut().enumerate() {
+        *v = libm::sin((a + step * i as f64).to_radians()) as f32;
+    }
+    g
+}
+
+fn finite(v: f32, p: Param) -> Result<(), ConfigError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(ConfigError::NotFinite(p))
+    }
+}
+
+/// An angle span `a < b` inside ±89.9° (as the DBE chain's).
+fn span(a: f32, b: f32, p: Param) -> Result<(), ConfigError> {
+    finite(a, p)?;
+    finite(b, p)?;
+    if a < b && a >= -89.9 && b <= 89.9 {
+        Ok(())
+    } else {
+        Err(ConfigError::OutOfRange(p))
+    }
+}
