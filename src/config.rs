@@ -308,6 +308,9 @@ pub struct Params {
     /// of a 3-TX azimuth line shifts the peak by up to ~5° at the unambiguous velocity limit;
     /// 8 bins (6° on the default grid) covers it without reaching a neighbouring target.
     pub tdm_azimuth_search: u8,
+    /// Sub-grid refinement of range, azimuth, elevation and Doppler (see [`crate::refine`]):
+    /// points get continuous coordinates instead of grid values; bin indices are unchanged.
+    pub subgrid: bool,
     /// Azimuth grid: first and last angle, degrees (the grid size is a const generic).
     pub azimuth_span_deg: (f32, f32),
     /// Elevation grid: first and last angle, degrees.
@@ -341,6 +344,7 @@ impl Params {
             forward_backward: true,
             tdm_compensation: true,
             tdm_azimuth_search: 8,
+            subgrid: false,
             azimuth_span_deg: (-70.0, 70.0),
             elevation_span_deg: (-25.0, 25.0),
             cfar: CfarParams::DEFAULT,

@@ -15,6 +15,8 @@ pub struct DopplerPeak {
     pub bin: i16,
     /// `|Y[d]|²` of that bin.
     pub power: f32,
+    /// Sub-bin offset of the peak from its neighbours (see [`crate::refine`]), in `[−½, ½]`.
+    pub offset: f32,
 }
 
 /// Window `y` in place, FFT it and return its strongest bin.
@@ -30,9 +32,12 @@ pub fn doppler_peak<const K: usize>(y: &mut [Complex32; K], window: &[f32; K]) -
             best = (d, p);
         }
     }
+    let left = y[(best.0 + K - 1) % K].norm_sqr();
+    let right = y[(best.0 + 1) % K].norm_sqr();
     DopplerPeak {
         bin: signed_bin::<K>(best.0),
         power: best.1.max(0.0),
+        offset: crate::refine::parabolic_offset(left, best.1, right),
     }
 }
 

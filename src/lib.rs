@@ -53,6 +53,7 @@ pub mod pipeline;
 pub mod points;
 pub mod presets;
 pub mod range;
+pub mod refine;
 pub mod window;
 
 pub use config::{AntennaGeometry, ConfigError, Params, Waveform};

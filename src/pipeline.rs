@@ -335,7 +335,7 @@ impl<
                 continue;
             };
             let before = out.stats.points + out.stats.point_overflow;
-            self.resolve(det, snap, cov, out);
+            self.resolve(det, snap, cov, &work.ra, out);
             if out.stats.points + out.stats.point_overflow == before {
                 out.stats.detections_without_point += 1;
             }
@@ -371,9 +371,25 @@ impl<
         det: &Detection,
         snap: &[[Complex32; K]; M],
         cov: &Matrix<M>,
+        ra: &[[f32; NAZ]; N],
         out: &mut PointCloud<P>,
     ) {
+        let b = usize::from(det.range_bin);
         let mut i = usize::from(det.azimuth_bin).min(NAZ - 1);
+        // Sub-grid offsets: range from the RA map's column, azimuth from the spectrum the
+        // final azimuth bin was chosen on (replaced below when TDM compensation re-estimates).
+        let at = |row: Option<usize>, col: usize| {
+            row.and_then(|b| ra.get(b))
+                .and_then(|r| r.get(col))
+                .copied()
+                .unwrap_or(0.0)
+        };
+        let range_frac = offset(at(b.checked_sub(1), i), at(Some(b), i), at(Some(b + 1), i));
+        let mut az_frac = offset(
+            at(Some(b), i.wrapping_sub(1)),
+            at(Some(b), i),
+            at(Some(b), i + 1),
+        );
         let mut r = *cov;
         let mut rot = [ONE; M];
         if self.params.tdm_compensation {
@@ -392,6 +408,11 @@ impl<
             rotate_rows(&mut r, &rot);
             if let Some((az, _)) = self.azimuth_capon(&r) {
                 i = self.climb_azimuth(&az, i);
+                let power = |i: usize| match self.az_steer.get(i) {
+                    Some(s) => az.power(&azimuth_part::<M, AZ>(s)),
+                    None => 0.0,
+                };
+                az_frac = offset(power(i.wrapping_sub(1)), power(i), power(i + 1));
             }
         }
 
@@ -411,11 +432,23 @@ impl<
         );
 
         // Stage 4–5: Capon-weighted Doppler and the point per elevation peak.
-        let mu = self.az_mu[i];
-        let range = f32::from(det.range_bin) * self.range_bin_m;
+        let subgrid = self.params.subgrid;
+        let (mu, range) = if subgrid {
+            (
+                grid_sine(self.params.azimuth_span_deg, NAZ, i as f32 + az_frac),
+                (b as f32 + range_frac) * self.range_bin_m,
+            )
+        } else {
+            (self.az_mu[i], b as f32 * self.range_bin_m)
+        };
         let snr_db = ratio_db(det.power, det.level);
         for &(j, power) in peaks.iter().flatten() {
-            let nu = self.el_nu[j];
+            let nu = if subgrid {
+                let frac = offset(spectrum[j - 1], spectrum[j], spectrum[j + 1]);
+                grid_sine(self.params.elevation_span_deg, NEL, j as f32 + frac)
+            } else {
+                self.el_nu[j]
+            };
             let cos2 = 1.0 - mu * mu - nu * nu;
             if !(cos2 > 0.0) {
                 continue;
@@ -423,10 +456,16 @@ impl<
             let w = el.weight(&self.steering(i, j));
             let mut y = [ZERO; K];
             beamform(&w, snap, &rot, &mut y);
-            let d = doppler_peak(&mut y, &self.doppler_window).bin;
+            let peak = doppler_peak(&mut y, &self.doppler_window);
+            let d = peak.bin;
+            let doppler = if subgrid {
+                f32::from(d) + peak.offset
+            } else {
+                f32::from(d)
+            };
             out.push(Point {
                 position: glam::Vec3::new(range * libm::sqrtf(cos2), -range * mu, range * nu),
-                velocity_mps: f32::from(d) * self.doppler_bin_mps,
+                velocity_mps: doppler * self.doppler_bin_mps,
                 power_db: 10.0 * libm::log10f(power.max(f32::MIN_POSITIVE)),
                 snr_db,
                 range_bin: det.range_bin,
@@ -518,6 +557,21 @@ fn strongest_interior_peaks<const L: usize>(
         }
     }
     best
+}
+
+/// Sub-grid offset of a peak from its neighbours' powers (see [`crate::refine`]).
+fn offset(left: f32, centre: f32, right: f32) -> f32 {
+    crate::refine::parabolic_offset(left, centre, right)
+}
+
+/// `sin` of the angle at fractional index `x` of an `len`-point linspace over `span` degrees.
+fn grid_sine(span: (f32, f32), len: usize, x: f32) -> f32 {
+    let step = if len > 1 {
+        (span.1 - span.0) / (len - 1) as f32
+    } else {
+        0.0
+    };
+    libm::sinf((span.0 + step * x).to_radians())
 }
 
 /// `10·log10(a / b)`, finite for positive inputs.

@@ -98,6 +98,7 @@ use crate::cube::{ChirpId, Cube, FrameError};
 use crate::fft::fft_in_place;
 use crate::points::{Point, PointCloud};
 use crate::range::RangeFft;
+use crate::refine::parabolic_offset;
 use crate::window::WindowKind;
 
 const ZERO: Complex32 = Complex32::new(0.0, 0.0);
@@ -119,6 +120,9 @@ pub struct FftParams {
     pub azimuth_span_deg: (f32, f32),
     /// Elevation grid used to label points with the nearest elevation bin, degrees.
     pub elevation_span_deg: (f32, f32),
+    /// Sub-grid refinement of range, azimuth and Doppler (see [`crate::refine`]); the
+    /// phase-difference elevation is continuous already.
+    pub subgrid: bool,
     /// Detection parameters.
     pub cfar: RdCfarParams,
 }
@@ -142,6 +146,7 @@ impl FftParams {
             tdm_compensation: p.tdm_compensation,
             azimuth_span_deg: p.azimuth_span_deg,
             elevation_span_deg: p.elevation_span_deg,
+            subgrid: p.subgrid,
             cfar: RdCfarParams::CA_DEFAULT,
         }
     }
@@ -500,7 +505,7 @@ impl<
         for det in work.detections.as_slice() {
             let before = out.stats.points + out.stats.point_overflow;
             if let Some(snap) = bins.get(usize::from(det.range_bin)) {
-                self.resolve(det, snap, out);
+                self.resolve(det, snap, &work.rd, out);
             }
             if out.stats.points + out.stats.point_overflow == before {
                 out.stats.detections_without_point += 1;
@@ -535,19 +540,23 @@ impl<
         &self,
         det: &RdDetection,
         snap: &[[Complex32; K]; M],
+        rd: &[[f32; K]; N],
         out: &mut PointCloud<P>,
     ) {
         let d = (i32::from(det.doppler_bin).rem_euclid(K as i32)) as usize;
         let x = self.doppler_cell(snap, d, det.doppler_bin);
 
         // Azimuth: beamscan of the line on the μ grid; an end-of-grid peak is out of span.
-        let mut best = (0usize, -1.0f32);
-        for (i, beam) in self.az_beam.iter().enumerate() {
+        let beam_power = |beam: &[Complex32; AZ]| {
             let mut s = ZERO;
             for (b, v) in beam.iter().zip(x.iter()) {
                 s += b * v;
             }
-            let p = s.norm_sqr();
+            s.norm_sqr()
+        };
+        let mut best = (0usize, -1.0f32);
+        for (i, beam) in self.az_beam.iter().enumerate() {
+            let p = beam_power(beam);
             if p > best.1 {
                 best = (i, p);
             }
@@ -555,6 +564,27 @@ impl<
         let i = best.0;
         if i == 0 || i + 1 >= NAZ {
             return;
+        }
+        let b = usize::from(det.range_bin);
+        let (mut range_bins, mut doppler_bins, mut mu) =
+            (b as f32, f32::from(det.doppler_bin), self.az_mu[i]);
+        if self.params.subgrid {
+            let at = |b: Option<usize>, d: usize| {
+                b.and_then(|b| rd.get(b))
+                    .map_or(0.0, |row| row[d & (K - 1)])
+            };
+            let (l, c, r) = (at(b.checked_sub(1), d), at(Some(b), d), at(Some(b + 1), d));
+            range_bins += parabolic_offset(l, c, r);
+            let (l, r) = (at(Some(b), d + K - 1), at(Some(b), d + 1));
+            doppler_bins += parabolic_offset(l, c, r);
+            let frac = parabolic_offset(
+                beam_power(&self.az_beam[i - 1]),
+                best.1,
+                beam_power(&self.az_beam[i + 1]),
+            );
+            let (a0, a1) = self.params.azimuth_span_deg;
+            let step = (a1 - a0) / (NAZ - 1) as f32;
+            mu = libm::sinf((a0 + step * (i as f32 + frac)).to_radians());
         }
 
         // Elevation: phase of the pair products (line element × conj(elevation element)).
@@ -568,15 +598,14 @@ impl<
             return;
         }
         let nu = libm::atan2f(z.im, z.re) / self.kappa_del;
-        let mu = self.az_mu[i];
         let cos2 = 1.0 - mu * mu - nu * nu;
         if !(cos2 > 0.0) {
             return;
         }
-        let range = f32::from(det.range_bin) * self.range_bin_m;
+        let range = range_bins * self.range_bin_m;
         out.push(Point {
             position: glam::Vec3::new(range * libm::sqrtf(cos2), -range * mu, range * nu),
-            velocity_mps: f32::from(det.doppler_bin) * self.doppler_bin_mps,
+            velocity_mps: doppler_bins * self.doppler_bin_mps,
             power_db: 10.0 * libm::log10f(det.power.max(f32::MIN_POSITIVE)),
             snr_db: ratio_db(det.power, det.level),
             range_bin: det.range_bin,
