@@ -1,2 +1,47 @@
-//! The `dbe` command.
-fn main() {}
+//! `dbe`: run the DBE radar chain on recordings, simulate scenes, validate and plot.
+
+mod cli;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Digital Beamforming Enhanced radar processing for single-chip 4D FMCW radars.
+#[derive(Parser, Debug)]
+#[command(name = "dbe", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Turn recorded frames (ColoRadar sequence or DCA1000 capture) into point clouds.
+    Process(cli::process::ProcessArgs),
+    /// Simulate a scene into a ColoRadar-layout sequence with calibration and ground truth.
+    Simulate(cli::simulate::SimulateArgs),
+    /// Check the core (fed chirp by chirp) against the f64 reference, frame by frame.
+    Validate(cli::validate::ValidateArgs),
+    /// Plot one frame: range–azimuth map and point cloud (top and side views).
+    Plot(cli::plot::PlotArgs),
+    /// Simulate the built-in scene, process, validate, measure accuracy and plot.
+    Demo(cli::demo::DemoArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Process(a) => cli::process::run(a),
+        Command::Simulate(a) => cli::simulate::run(a),
+        Command::Validate(a) => cli::validate::run(a),
+        Command::Plot(a) => cli::plot::run(a),
+        Command::Demo(a) => cli::demo::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,212 @@
+//! `dbe demo`: simulate the built-in scene, process it, validate the core against the
+//! reference, measure accuracy against ground truth, and plot one frame.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use host_sim::cloud::PointRecord;
+use host_sim::io::StagedDir;
+use host_sim::sensor::SensorConfig;
+use host_sim::sim::{ObjectKind, Scene, SimFrame};
+
+use super::input::Input;
+use super::process::{run_frames, write_outputs, Format, FrameResult, Pipeline};
+use super::ParamArgs;
+
+/// Marks a folder as `dbe demo` output, which a later demo may replace.
+const MARKER: &str = ".dbe-demo";
+
+/// A point within this distance of a target counts as its detection; farther from every
+/// target and surface sample, it is a false point (the 0.6 m).
+const MATCH_RADIUS_M: f64 = 0.6;
+
+/// Arguments of `dbe demo`.
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Output folder; a previous demo's output there is replaced, anything else is refused.
+    #[arg(long, default_value = "dbe-demo")]
+    pub out: PathBuf,
+    /// Frames to simulate.
+    #[arg(long, default_value_t = 20)]
+    pub frames: usize,
+    #[command(flatten)]
+    pub params: ParamArgs,
+}
+
+/// Accuracy of one run against ground truth (point targets).
+#[derive(Debug, Default, serde::Serialize)]
+pub struct Accuracy {
+    pub targets: usize,
+    pub detected: usize,
+    pub azimuth_rmse_deg: f64,
+    pub elevation_rmse_deg: f64,
+    pub doppler_rmse_mps: f64,
+    pub false_points_per_frame: f64,
+    pub points_per_frame: f64,
+}
+
+/// Compare `results` with the ground truth of `frames`.
+pub fn accuracy(frames: &[SimFrame], results: &[FrameResult]) -> Accuracy {
+    let mut a = Accuracy::default();
+    let (mut az2, mut el2, mut v2) = (0.0, 0.0, 0.0);
+    let mut false_points = 0usize;
+    let mut points = 0usize;
+    for (f, r) in frames.iter().zip(results.iter()) {
+        let visible: Vec<_> = f.truth.objects.iter().filter(|o| o.visible).collect();
+        for t in visible.iter().filter(|o| o.kind == ObjectKind::Point) {
+            a.targets += 1;
+            let best = r
+                .points
+                .iter()
+                .map(|p| (distance(p, t.position), p))
+                .min_by(|x, y| x.0.total_cmp(&y.0));
+            if let Some((d, p)) = best.filter(|(d, _)| *d <= MATCH_RADIUS_M) {
+                let _ = d;
+                a.detected += 1;
+                let look = host_sim::sim::truth::look([p.x, p.y, p.z], [0.0; 3]);
+                az2 += (look.azimuth_deg - t.azimuth_deg).powi(2);
+                el2 += (look.elevation_deg - t.elevation_deg).powi(2);
+                v2 += (p.doppler - t.radial_velocity_mps).powi(2);
+            }
+        }
+        for p in &r.points {
+            points += 1;
+            let near = visible.iter().any(|o| {
+                distance(p, o.position) <= MATCH_RADIUS_M
+                    || o.surface_points
+                        .iter()
+                        .any(|s| distance(p, *s) <= MATCH_RADIUS_M)
+            });
+            if !near {
+                false_points += 1;
+            }
+        }
+    }
+    let n = a.detected.max(1) as f64;
+    a.azimuth_rmse_deg = (az2 / n).sqrt();
+    a.elevation_rmse_deg = (el2 / n).sqrt();
+    a.doppler_rmse_mps = (v2 / n).sqrt();
+    a.false_points_per_frame = false_points as f64 / frames.len().max(1) as f64;
+    a.points_per_frame = points as f64 / frames.len().max(1) as f64;
+    a
+}
+
+fn distance(p: &PointRecord, t: [f64; 3]) -> f64 {
+    ((p.x - t[0]).powi(2) + (p.y - t[1]).powi(2) + (p.z - t[2]).powi(2)).sqrt()
+}
+
+/// Make room for the demo's output: refuse a non-empty folder that is not a previous demo.
+fn clear(out: &Path) -> Result<()> {
+    if out.join(MARKER).is_file() {
+        fs::remove_dir_all(out)
+            .with_context(|| format!("removing the previous demo in {}", out.display()))?;
+    } else if out.exists()
+        && fs::read_dir(out)
+            .map(|mut d| d.next().is_some())
+            .unwrap_or(true)
+    {
+        bail!(
+            "{}: exists and is not a previous `dbe demo` output; pass --out NEW_FOLDER",
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// `dbe demo`.
+pub fn run(args: &DemoArgs) -> Result<()> {
+    let start = Instant::now();
+    if args.frames == 0 {
+        bail!("--frames 0: expected at least one frame");
+    }
+    clear(&args.out)?;
+    let staged = StagedDir::new(&args.out)?;
+    let root = staged.path().to_path_buf();
+    let sensor = SensorConfig::coloradar();
+    let scene = Scene::builtin_demo();
+    let params = args.params.to_params(&sensor)?;
+
+    println!(
+        "1. simulate: scene `{}` ({}), {} frames",
+        scene.name, scene.description, args.frames
+    );
+    let frames = super::simulate::simulate(&scene, &sensor, args.frames)?;
+    let seq = root.join("sequence");
+    super::simulate::write(&seq, &sensor, &frames)?;
+
+    println!("2. process: DBE chain, core fed chirp by chirp");
+    let opened = Input::open(&seq, None)?;
+    let results = run_frames(
+        &opened.input,
+        &opened.sensor,
+        &params,
+        Pipeline::Dbe,
+        0..args.frames,
+        "process",
+    )?;
+    write_outputs(
+        &root.join("pointclouds"),
+        &results,
+        &[Format::Coloradar, Format::Csv],
+    )?;
+
+    println!("3. validate: core (f32, no_std) against the f64 reference implementation");
+    let reports =
+        super::validate::validate(&opened.input, &opened.sensor, &params, 0..args.frames)?;
+    let agree = super::validate::print(&reports);
+
+    println!("4. accuracy against ground truth (point targets; {MATCH_RADIUS_M} m match radius)");
+    let acc = accuracy(&frames, &results);
+    println!(
+        "   detected {}/{} targets ({:.1} %), azimuth RMSE {:.2}°, elevation RMSE {:.2}°, Doppler RMSE {:.3} m/s",
+        acc.detected,
+        acc.targets,
+        100.0 * acc.detected as f64 / acc.targets.max(1) as f64,
+        acc.azimuth_rmse_deg,
+        acc.elevation_rmse_deg,
+        acc.doppler_rmse_mps
+    );
+    println!(
+        "   {:.1} points per frame, {:.2} per frame farther than {MATCH_RADIUS_M} m from every object",
+        acc.points_per_frame, acc.false_points_per_frame
+    );
+
+    let mid = args.frames / 2;
+    let plots = super::plot::plot_frame(
+        &opened.input,
+        &opened.sensor,
+        &params,
+        mid,
+        &root.join("plots"),
+    )?;
+    println!("5. plots of frame {mid}: {} files", plots.len());
+
+    let summary = serde_json::json!({
+        "frames": args.frames,
+        "frames_agreeing_with_reference": reports.iter().filter(|(_, r)| r.agreement.is_match()).count(),
+        "accuracy": acc,
+    });
+    fs::write(
+        root.join("summary.json"),
+        serde_json::to_string_pretty(&summary)?,
+    )
+    .context("writing summary.json")?;
+    fs::write(
+        root.join(MARKER),
+        "written by `dbe demo`; a later demo may replace this folder\n",
+    )
+    .context("writing the demo marker")?;
+    staged.commit()?;
+    println!(
+        "done in {:.1} s → {} (sequence/, pointclouds/, plots/, summary.json)",
+        start.elapsed().as_secs_f64(),
+        args.out.display()
+    );
+    if !agree {
+        bail!("the core and the reference disagree on some frames (see step 3)");
+    }
+    Ok(())
+}

@@ -1,0 +1,163 @@
+//! Opening what `dbe` is pointed at: a ColoRadar sequence folder or a DCA1000 `.bin` capture,
+//! with its calibration.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use host_sim::frame::AdcFrame;
+use host_sim::io::{coloradar, dca1000, load_calib, Sequence};
+use host_sim::sensor::SensorConfig;
+
+/// Frame period assumed for DCA1000 captures, which carry no timestamps (ColoRadar: 10 Hz).
+pub const DCA1000_FRAME_PERIOD_S: f64 = 0.1;
+
+/// Recorded frames and the sensor that recorded them.
+pub enum Input {
+    /// A ColoRadar sequence folder (`root`) and its frames.
+    Sequence { root: PathBuf, seq: Sequence },
+    /// A DCA1000 capture, decoded whole (a capture is a few frames).
+    Dca1000 {
+        path: PathBuf,
+        frames: Vec<AdcFrame>,
+    },
+}
+
+/// Where the calibration came from, for the user.
+pub struct Opened {
+    pub input: Input,
+    pub sensor: SensorConfig,
+    pub calib_source: String,
+}
+
+impl Input {
+    /// Open `path` with `calib` (a calibration folder), or else a calibration found beside the
+    /// input (`<seq>/calib`, or `waveform_cfg.txt` + `antenna_cfg.txt` next to a `.bin`), or
+    /// else the built-in ColoRadar single-chip values.
+    pub fn open(path: &Path, calib: Option<&Path>) -> Result<Opened> {
+        if !path.exists() {
+            bail!("{}: no such file or folder (expected a ColoRadar sequence folder or a DCA1000 .bin file)", path.display());
+        }
+        let beside = if path.is_dir() {
+            Some(path.join("calib"))
+        } else {
+            path.parent().map(Path::to_path_buf)
+        };
+        let (sensor, calib_source) = match calib {
+            Some(dir) => (load_calib(dir)?, dir.display().to_string()),
+            None => match beside.filter(|d| has_calib(d)) {
+                Some(dir) => (
+                    load_calib(&dir)?,
+                    format!("{} (found beside the input)", dir.display()),
+                ),
+                None => (
+                    SensorConfig::coloradar(),
+                    "built-in ColoRadar single-chip values".to_string(),
+                ),
+            },
+        };
+        let input = if path.is_dir() {
+            Input::Sequence {
+                root: path.to_path_buf(),
+                seq: coloradar::open_sequence(path, &sensor)?,
+            }
+        } else {
+            let frames = dca1000::read_dca1000(path, &sensor)?;
+            Input::Dca1000 {
+                path: path.to_path_buf(),
+                frames,
+            }
+        };
+        Ok(Opened {
+            input,
+            sensor,
+            calib_source,
+        })
+    }
+
+    /// Frames available.
+    pub fn len(&self) -> usize {
+        match self {
+            Input::Sequence { seq, .. } => seq.len(),
+            Input::Dca1000 { frames, .. } => frames.len(),
+        }
+    }
+
+    /// Frame `i`.
+    pub fn frame(&self, i: usize) -> Result<AdcFrame> {
+        match self {
+            Input::Sequence { seq, .. } => Ok(seq.read_frame(i)?),
+            Input::Dca1000 { path, frames } => frames
+                .get(i)
+                .cloned()
+                .with_context(|| format!("{}: no frame {i}", path.display())),
+        }
+    }
+
+    /// Time of frame `i`, s: the sequence's timestamp, or `i ·` [`DCA1000_FRAME_PERIOD_S`].
+    pub fn time(&self, i: usize) -> f64 {
+        match self {
+            Input::Sequence { seq, .. } => seq.timestamps().get(i).copied().unwrap_or(0.0),
+            Input::Dca1000 { .. } => i as f64 * DCA1000_FRAME_PERIOD_S,
+        }
+    }
+
+    /// The sequence folder, if the input is one (for ground truth lookup).
+    pub fn sequence_dir(&self) -> Option<&Path> {
+        match self {
+            Input::Sequence { root, .. } => Some(root),
+            Input::Dca1000 { .. } => None,
+        }
+    }
+}
+
+fn has_calib(dir: &Path) -> bool {
+    dir.join("single_chip/waveform_cfg.txt").is_file()
+        || (dir.join("waveform_cfg.txt").is_file() && dir.join("antenna_cfg.txt").is_file())
+}
+
+/// Parse `A..B`, `A..`, `..B` or `I` (one frame) against `len` frames.
+pub fn frame_range(spec: Option<&str>, len: usize) -> Result<Range<usize>> {
+    let Some(spec) = spec else {
+        return Ok(0..len);
+    };
+    let parse = |s: &str, default: usize| -> Result<usize> {
+        if s.is_empty() {
+            Ok(default)
+        } else {
+            s.trim()
+                .parse()
+                .with_context(|| format!("--frames {spec}: `{s}` is not a frame index"))
+        }
+    };
+    let range = match spec.split_once("..") {
+        Some((a, b)) => parse(a, 0)?..parse(b, len)?,
+        None => {
+            let i = parse(spec, 0)?;
+            i..i + 1
+        }
+    };
+    if range.start >= range.end || range.end > len {
+        bail!(
+            "--frames {spec}: the input has frames 0..{len}; expected a non-empty range inside it"
+        );
+    }
+    Ok(range)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_ranges() {
+        assert_eq!(frame_range(None, 5).unwrap(), 0..5);
+        assert_eq!(frame_range(Some("1..3"), 5).unwrap(), 1..3);
+        assert_eq!(frame_range(Some("2.."), 5).unwrap(), 2..5);
+        assert_eq!(frame_range(Some("..2"), 5).unwrap(), 0..2);
+        assert_eq!(frame_range(Some("4"), 5).unwrap(), 4..5);
+        assert!(frame_range(Some("3..9"), 5).is_err());
+        assert!(frame_range(Some("3..3"), 5).is_err());
+        assert!(frame_range(Some("x"), 5).is_err());
+    }
+}

@@ -1,0 +1,41 @@
+//! The `dbe` subcommands.
+
+pub mod demo;
+pub mod input;
+pub mod plot;
+pub mod process;
+pub mod simulate;
+pub mod validate;
+
+use anyhow::Result;
+use clap::Args;
+use host_sim::sensor::SensorConfig;
+
+/// Processing parameters a user may want to change; everything else keeps the spec's defaults.
+#[derive(Args, Debug, Clone, Default)]
+pub struct ParamArgs {
+    /// Turn TDM-MIMO motion compensation off (reproduces the paper's chain).
+    #[arg(long)]
+    pub no_tdm_compensation: bool,
+    /// CFAR threshold α over the noise level, dB [default: 12].
+    #[arg(long, value_name = "DB")]
+    pub cfar_threshold_db: Option<f32>,
+    /// Diagonal loading γ (δ = γ·tr(R)/M) [default: 0.01].
+    #[arg(long, value_name = "GAMMA")]
+    pub loading: Option<f32>,
+}
+
+impl ParamArgs {
+    /// The core's parameters for `sensor`'s sizes with these overrides.
+    pub fn to_params(&self, sensor: &SensorConfig) -> Result<dbe_radar::Params> {
+        let mut p = dbe_radar::Params::defaults(sensor.samples);
+        p.tdm_compensation = !self.no_tdm_compensation;
+        if let Some(t) = self.cfar_threshold_db {
+            p.cfar.threshold_db = t;
+        }
+        if let Some(g) = self.loading {
+            p.loading = g;
+        }
+        Ok(p)
+    }
+}

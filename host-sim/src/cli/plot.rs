@@ -1,0 +1,106 @@
+//! `dbe plot`: PNGs of one frame's range–azimuth map and point cloud.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::Args;
+use host_sim::core_run::CoreRunner;
+use host_sim::plot::{plot_points, plot_range_azimuth};
+use host_sim::sim::FrameTruth;
+
+use super::input::Input;
+use super::ParamArgs;
+
+/// Arguments of `dbe plot`.
+#[derive(Args, Debug)]
+pub struct PlotArgs {
+    /// ColoRadar sequence folder or DCA1000 `.bin` capture.
+    pub input: PathBuf,
+    /// Frame index.
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+    /// Calibration folder (as for `dbe process`).
+    #[arg(long)]
+    pub calib: Option<PathBuf>,
+    /// Output folder for the PNGs (created if missing; files are replaced atomically).
+    #[arg(long)]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub params: ParamArgs,
+}
+
+/// Ground-truth points of frame `i` of a simulated sequence (`<seq>/groundtruth/`), if any:
+/// visible point targets and sampled visible surfaces.
+pub fn truth_points(seq: Option<&Path>, i: usize) -> Result<Option<Vec<[f64; 3]>>> {
+    let Some(path) = seq.map(|s| s.join(format!("groundtruth/frame_{i}.json"))) else {
+        return Ok(None);
+    };
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let text = fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let truth: FrameTruth =
+        serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+    let mut pts = Vec::new();
+    for o in truth.objects.iter().filter(|o| o.visible) {
+        if o.surface_points.is_empty() {
+            pts.push(o.position);
+        } else {
+            pts.extend_from_slice(&o.surface_points);
+        }
+    }
+    Ok(Some(pts))
+}
+
+/// Plot frame `i` of `input` into `out`; returns the files written.
+pub fn plot_frame(
+    input: &Input,
+    sensor: &host_sim::sensor::SensorConfig,
+    params: &dbe_radar::Params,
+    i: usize,
+    out: &Path,
+) -> Result<Vec<PathBuf>> {
+    let frame = input.frame(i)?;
+    let mut runner = CoreRunner::new(sensor, *params)?;
+    let result = runner.process(&frame)?;
+    fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let (a0, a1) = params.azimuth_span_deg;
+    let naz = result.ra_map.first().map_or(0, Vec::len);
+    let az: Vec<f64> = (0..naz)
+        .map(|k| f64::from(a0) + f64::from(a1 - a0) * k as f64 / (naz.max(2) - 1) as f64)
+        .collect();
+    let ra = out.join(format!("range_azimuth_{i}.png"));
+    let range_bin_m = sensor.waveform.range_bin_m(sensor.samples);
+    plot_range_azimuth(&ra, &result.ra_map, range_bin_m, &az)?;
+    let (top, side) = (
+        out.join(format!("points_top_{i}.png")),
+        out.join(format!("points_side_{i}.png")),
+    );
+    let truth = truth_points(input.sequence_dir(), i)?;
+    plot_points(&top, &side, &result.points, truth.as_deref())?;
+    Ok(vec![ra, top, side])
+}
+
+/// `dbe plot`.
+pub fn run(args: &PlotArgs) -> Result<()> {
+    let opened = Input::open(&args.input, args.calib.as_deref())?;
+    if args.frame >= opened.input.len() {
+        anyhow::bail!(
+            "--frame {}: the input has frames 0..{}",
+            args.frame,
+            opened.input.len()
+        );
+    }
+    let params = args.params.to_params(&opened.sensor)?;
+    for f in plot_frame(
+        &opened.input,
+        &opened.sensor,
+        &params,
+        args.frame,
+        &args.out,
+    )? {
+        println!("{}", f.display());
+    }
+    Ok(())
+}
