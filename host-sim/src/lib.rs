@@ -2,5 +2,12 @@
 //! and writers of recorded data, the validation harness and the `dbe` command.
 
 pub mod cloud;
+pub mod core_run;
+pub mod firmware;
 pub mod frame;
+pub mod harness;
+pub mod io;
+pub mod plot;
+pub mod reference;
 pub mod sensor;
+pub mod sim;

@@ -15,7 +15,7 @@ pub const DCA1000_FRAME_PERIOD_S: f64 = 0.1;
 /// Recorded frames and the sensor that recorded them.
 pub enum Input {
     /// A ColoRadar sequence folder (`root`) and its frames.
-    Sequence { root: PathBuf, seq: Sequence },
+    Sequence { root: PathBuf, seq: Box<Sequence> },
     /// A DCA1000 capture, decoded whole (a capture is a few frames).
     Dca1000 {
         path: PathBuf,
@@ -59,7 +59,7 @@ impl Input {
         let input = if path.is_dir() {
             Input::Sequence {
                 root: path.to_path_buf(),
-                seq: coloradar::open_sequence(path, &sensor)?,
+                seq: Box::new(coloradar::open_sequence(path, &sensor)?),
             }
         } else {
             let frames = dca1000::read_dca1000(path, &sensor)?;

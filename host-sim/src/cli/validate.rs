@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Result};
 use clap::Args;
-use host_sim::harness::{format_table, FrameReport, Validator};
+use host_sim::harness::{format_indexed_table, FrameReport, Validator};
 use host_sim::sensor::SensorConfig;
 use rayon::prelude::*;
 
@@ -52,20 +52,10 @@ pub fn validate(
     reports.into_iter().collect()
 }
 
-/// Print the table; `Ok(true)` when every frame agrees.
+/// Print the table; `true` when every frame agrees.
 pub fn print(reports: &[(usize, FrameReport)]) -> bool {
-    let only: Vec<FrameReport> = reports.iter().map(|(_, r)| r.clone()).collect();
-    print!("{}", format_table(&only));
-    let bad = reports
-        .iter()
-        .filter(|(_, r)| !r.agreement.is_match())
-        .count();
-    println!(
-        "{} of {} frames agree (core vs f64 reference)",
-        reports.len() - bad,
-        reports.len()
-    );
-    bad == 0
+    print!("{}", format_indexed_table(reports));
+    reports.iter().all(|(_, r)| r.agreement.is_match())
 }
 
 /// `dbe validate`.

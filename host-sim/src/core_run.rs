@@ -1,0 +1,429 @@
+//! Running the core (`dbe_radar`) on host data, as the firmware would: chirp by chirp.
+//!
+//! The core's array sizes are compile-time constants, so a sensor must match one of the
+//! compiled [`Preset`]s. A [`CoreRunner`] holds the configured chain and its heap-allocated
+//! cube, workspace and point cloud (megabyte-sized values never touch a thread's stack), and
+//! turns one [`AdcFrame`] into a [`CoreOutput`].
+
+use std::fmt;
+
+use dbe_radar::cfar::Detection;
+use dbe_radar::cube::CubeStorage;
+use dbe_radar::{ChirpId, Complex32, ConfigError, Cube, Dbe, FrameError, FrameStats, Params};
+use dbe_radar::{PointCloud, Workspace};
+
+use crate::cloud::PointRecord;
+use crate::frame::AdcFrame;
+use crate::sensor::SensorConfig;
+
+/// A compiled array-size preset of the core.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preset {
+    /// `dbe_radar::presets::coloradar`: 128 samples, 128 loops, 3 TX × 4 RX.
+    ColoRadar,
+    /// `dbe_radar::presets::iwr6843`: 256 samples, 64 loops, 3 TX × 4 RX.
+    Iwr6843,
+}
+
+/// Sizes of a preset: `(samples, loops, tx, rx)`.
+type Sizes = (usize, usize, usize, usize);
+
+impl Preset {
+    /// Every compiled preset.
+    pub const ALL: [Preset; 2] = [Preset::ColoRadar, Preset::Iwr6843];
+
+    /// The preset's name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Preset::ColoRadar => "coloradar",
+            Preset::Iwr6843 => "iwr6843",
+        }
+    }
+
+    /// `(samples, loops, tx, rx)` of the preset.
+    pub const fn sizes(self) -> Sizes {
+        use dbe_radar::presets::{coloradar as c, iwr6843 as i};
+        match self {
+            Preset::ColoRadar => (c::SAMPLES, c::LOOPS, c::TX, c::RX),
+            Preset::Iwr6843 => (i::SAMPLES, i::LOOPS, i::TX, i::RX),
+        }
+    }
+
+    /// Azimuth grid bins of the preset.
+    pub const fn azimuth_bins(self) -> usize {
+        match self {
+            Preset::ColoRadar => dbe_radar::presets::coloradar::AZIMUTH_BINS,
+            Preset::Iwr6843 => dbe_radar::presets::iwr6843::AZIMUTH_BINS,
+        }
+    }
+
+    /// Elevation grid bins of the preset.
+    pub const fn elevation_bins(self) -> usize {
+        match self {
+            Preset::ColoRadar => dbe_radar::presets::coloradar::ELEVATION_BINS,
+            Preset::Iwr6843 => dbe_radar::presets::iwr6843::ELEVATION_BINS,
+        }
+    }
+
+    /// Detection capacity per frame of the preset.
+    pub const fn detection_capacity(self) -> usize {
+        match self {
+            Preset::ColoRadar => dbe_radar::presets::coloradar::DETECTIONS,
+            Preset::Iwr6843 => dbe_radar::presets::iwr6843::DETECTIONS,
+        }
+    }
+
+    /// The preset whose sizes (samples, loops, TX, RX) match `sensor`.
+    pub fn for_sensor(sensor: &SensorConfig) -> Result<Preset, CoreRunError> {
+        let found = (sensor.samples, sensor.loops, sensor.num_tx, sensor.num_rx);
+        Self::ALL
+            .into_iter()
+            .find(|p| p.sizes() == found)
+            .ok_or(CoreRunError::NoPreset { found })
+    }
+}
+
+impl fmt::Display for Preset {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (n, k, tx, rx) = self.sizes();
+        write!(
+            f,
+            "{} ({n} samples, {k} loops, {tx} TX × {rx} RX)",
+            self.name()
+        )
+    }
+}
+
+fn list_presets() -> String {
+    Preset::ALL
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Why the core could not be set up or run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CoreRunError {
+    /// No compiled preset has the sensor's sizes.
+    #[error(
+        "no compiled preset for {} samples, {} loops, {} TX × {} RX; compiled presets: {}",
+        found.0, found.1, found.2, found.3, list_presets()
+    )]
+    NoPreset {
+        /// The sensor's `(samples, loops, tx, rx)`.
+        found: Sizes,
+    },
+    /// The sensor's antenna lists do not fit the preset's 3 TX × 4 RX.
+    #[error("sensor has {tx} TX and {rx} RX positions, the {preset} preset needs {} and {}", preset.sizes().2, preset.sizes().3)]
+    Geometry {
+        /// The preset.
+        preset: Preset,
+        /// TX positions given.
+        tx: usize,
+        /// RX positions given.
+        rx: usize,
+    },
+    /// The coupling table does not hold `tx · rx · range_bins` values.
+    #[error(
+        "coupling calibration holds {found} values, {expected} expected ([tx][rx][range bin])"
+    )]
+    CouplingSize {
+        /// Values expected.
+        expected: usize,
+        /// Values found.
+        found: usize,
+    },
+    /// The core rejected the configuration.
+    #[error("invalid configuration for the {preset} preset: {source}")]
+    Config {
+        /// The preset.
+        preset: Preset,
+        /// The core's reason.
+        source: ConfigError,
+    },
+    /// The frame's sizes are not the runner's.
+    #[error("frame is {} samples × {} loops × {} TX × {} RX with {} values, the runner expects {} × {} × {} × {} ({})",
+        found.0, found.1, found.2, found.3, len, expected.0, expected.1, expected.2, expected.3, preset)]
+    FrameShape {
+        /// The runner's preset.
+        preset: Preset,
+        /// The preset's `(samples, loops, tx, rx)`.
+        expected: Sizes,
+        /// The frame's `(samples, loops, tx, rx)`.
+        found: Sizes,
+        /// `data.len()` of the frame.
+        len: usize,
+    },
+    /// The core refused a chirp or the frame (cannot happen for a well-formed frame).
+    #[error("core rejected the frame: {0}")]
+    Frame(FrameError),
+}
+
+/// What the core produced for one frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CoreOutput {
+    /// The points.
+    pub points: Vec<PointRecord>,
+    /// The frame statistics.
+    pub stats: FrameStats,
+    /// Range–azimuth map, `ra_map[range bin][azimuth bin]`, linear.
+    pub ra_map: Vec<Vec<f32>>,
+    /// CFAR detections.
+    pub detections: Vec<Detection>,
+}
+
+/// The chain and its buffers for one preset's sizes.
+struct Engine<
+    const N: usize,
+    const K: usize,
+    const TX: usize,
+    const RX: usize,
+    const M: usize,
+    const AZ: usize,
+    const NAZ: usize,
+    const NEL: usize,
+    const DET: usize,
+    const P: usize,
+> {
+    dbe: Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>,
+    storage: Box<CubeStorage<N, M, K>>,
+    work: Box<Workspace<N, M, NAZ, DET>>,
+    cloud: Box<PointCloud<P>>,
+    chirp: Box<[[[i16; 2]; N]; RX]>,
+}
+
+impl<
+        const N: usize,
+        const K: usize,
+        const TX: usize,
+        const RX: usize,
+        const M: usize,
+        const AZ: usize,
+        const NAZ: usize,
+        const NEL: usize,
+        const DET: usize,
+        const P: usize,
+    > Engine<N, K, TX, RX, M, AZ, NAZ, NEL, DET, P>
+{
+    fn new(
+        preset: Preset,
+        sensor: &SensorConfig,
+        params: Params,
+    ) -> Result<Box<Self>, CoreRunError> {
+        let geometry_error = CoreRunError::Geometry {
+            preset,
+            tx: sensor.tx.len(),
+            rx: sensor.rx.len(),
+        };
+        let geometry = dbe_radar::AntennaGeometry::<TX, RX> {
+            tx: sensor
+                .tx
+                .clone()
+                .try_into()
+                .map_err(|_| geometry_error.clone())?,
+            rx: sensor.rx.clone().try_into().map_err(|_| geometry_error)?,
+            f_design_hz: sensor.f_design_hz,
+        };
+        let config = |source| CoreRunError::Config { preset, source };
+        let mut dbe = Dbe::new(sensor.waveform, geometry, params).map_err(config)?;
+        if let Some(c) = &sensor.coupling {
+            let expected = TX * RX * c.range_bins;
+            if c.data.len() != expected {
+                return Err(CoreRunError::CouplingSize {
+                    expected,
+                    found: c.data.len(),
+                });
+            }
+            let table: Vec<&[Complex32]> = c.data.chunks(c.range_bins.max(1)).collect();
+            let per_tx: [[&[Complex32]; RX]; TX] = core::array::from_fn(|t| {
+                core::array::from_fn(|r| table.get(t * RX + r).copied().unwrap_or(&[]))
+            });
+            dbe = dbe.with_coupling(&per_tx).map_err(config)?;
+        }
+        let zero = Complex32::new(0.0, 0.0);
+        let storage: Box<CubeStorage<N, M, K>> =
+            match vec![[[zero; K]; M]; N].into_boxed_slice().try_into() {
+                Ok(storage) => storage,
+                Err(_) => unreachable!("vec![_; N] holds exactly N range bins"),
+            };
+        Ok(Box::new(Self {
+            dbe,
+            storage,
+            work: Box::new(Workspace::new()),
+            cloud: Box::new(PointCloud::new()),
+            chirp: Box::new([[[0; 2]; N]; RX]),
+        }))
+    }
+
+    fn process(&mut self, frame: &AdcFrame) -> Result<CoreOutput, CoreRunError> {
+        let mut cube = Cube::new(&mut self.storage);
+        for k in 0..K {
+            for t in 0..TX {
+                let src = frame.chirp(k, t);
+                for (dst, src) in self.chirp.iter_mut().zip(src.chunks_exact(N)) {
+                    dst.copy_from_slice(src);
+                }
+                let id = ChirpId {
+                    loop_index: k as u16,
+                    tx_slot: t as u8,
+                };
+                self.dbe
+                    .push_chirp(&mut cube, id, &self.chirp)
+                    .map_err(CoreRunError::Frame)?;
+            }
+        }
+        self.dbe
+            .process(&cube, &mut self.work, &mut self.cloud)
+            .map_err(CoreRunError::Frame)?;
+        Ok(CoreOutput {
+            points: self.cloud.points().iter().map(PointRecord::from).collect(),
+            stats: self.cloud.stats,
+            ra_map: self
+                .work
+                .range_azimuth()
+                .iter()
+                .map(|r| r.to_vec())
+                .collect(),
+            detections: self.work.detections().to_vec(),
+        })
+    }
+}
+
+macro_rules! preset_engine {
+    ($p:ident) => {
+        Engine<
+            { dbe_radar::presets::$p::SAMPLES },
+            { dbe_radar::presets::$p::LOOPS },
+            { dbe_radar::presets::$p::TX },
+            { dbe_radar::presets::$p::RX },
+            { dbe_radar::presets::$p::VIRTUAL },
+            { dbe_radar::presets::$p::AZIMUTH },
+            { dbe_radar::presets::$p::AZIMUTH_BINS },
+            { dbe_radar::presets::$p::ELEVATION_BINS },
+            { dbe_radar::presets::$p::DETECTIONS },
+            { dbe_radar::presets::$p::POINTS },
+        >
+    };
+}
+
+type ColoRadarEngine = preset_engine!(coloradar);
+type Iwr6843Engine = preset_engine!(iwr6843);
+
+enum Engines {
+    ColoRadar(Box<ColoRadarEngine>),
+    Iwr6843(Box<Iwr6843Engine>),
+}
+
+/// The core configured for one sensor, with its buffers on the heap.
+pub struct CoreRunner {
+    preset: Preset,
+    engine: Engines,
+}
+
+impl fmt::Debug for CoreRunner {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("CoreRunner")
+            .field("preset", &self.preset)
+            .finish_non_exhaustive()
+    }
+}
+
+impl CoreRunner {
+    /// Configure the core for `sensor` (its preset, waveform, geometry and coupling, when
+    /// present) with `params`.
+    pub fn new(sensor: &SensorConfig, params: Params) -> Result<Self, CoreRunError> {
+        let preset = Preset::for_sensor(sensor)?;
+        let engine = match preset {
+            Preset::ColoRadar => Engines::ColoRadar(Engine::new(preset, sensor, params)?),
+            Preset::Iwr6843 => Engines::Iwr6843(Engine::new(preset, sensor, params)?),
+        };
+        Ok(Self { preset, engine })
+    }
+
+    /// The preset in use.
+    pub fn preset(&self) -> Preset {
+        self.preset
+    }
+
+    /// The processing parameters.
+    pub fn params(&self) -> &Params {
+        match &self.engine {
+            Engines::ColoRadar(e) => e.dbe.params(),
+            Engines::Iwr6843(e) => e.dbe.params(),
+        }
+    }
+
+    /// Feed `frame` chirp by chirp in TDM order (loop 0 slot 0, loop 0 slot 1, …) through
+    /// `push_chirp`, then process it. A frame of other sizes is an error.
+    pub fn process(&mut self, frame: &AdcFrame) -> Result<CoreOutput, CoreRunError> {
+        let expected = self.preset.sizes();
+        let found = (frame.samples, frame.loops, frame.tx, frame.rx);
+        let (n, k, tx, rx) = expected;
+        if found != expected || frame.data.len() != n * k * tx * rx {
+            return Err(CoreRunError::FrameShape {
+                preset: self.preset,
+                expected,
+                found,
+                len: frame.data.len(),
+            });
+        }
+        match &mut self.engine {
+            Engines::ColoRadar(e) => e.process(frame),
+            Engines::Iwr6843(e) => e.process(frame),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_sizes_name_the_compiled_presets() {
+        let mut sensor = SensorConfig::coloradar();
+        sensor.loops = 32;
+        let err = Preset::for_sensor(&sensor).err().map(|e| e.to_string());
+        let text = err.unwrap_or_default();
+        assert!(text.contains("32 loops"), "{text}");
+        assert!(text.contains("coloradar (128 samples, 128 loops"), "{text}");
+        assert!(text.contains("iwr6843 (256 samples, 64 loops"), "{text}");
+    }
+
+    #[test]
+    fn a_frame_of_the_wrong_size_is_an_error() -> Result<(), CoreRunError> {
+        let sensor = SensorConfig::coloradar();
+        let mut runner = CoreRunner::new(&sensor, Params::defaults(128))?;
+        assert_eq!(runner.preset(), Preset::ColoRadar);
+        let frame = AdcFrame::zeros(256, 64, 3, 4);
+        assert!(matches!(
+            runner.process(&frame),
+            Err(CoreRunError::FrameShape { .. })
+        ));
+        let mut short = AdcFrame::zeros(128, 128, 3, 4);
+        short.data.pop();
+        assert!(matches!(
+            runner.process(&short),
+            Err(CoreRunError::FrameShape { .. })
+        ));
+        // A zero frame runs (no positive-definite covariance: every processed bin skipped).
+        let out = runner.process(&AdcFrame::zeros(128, 128, 3, 4))?;
+        let p = runner.params();
+        let processed = u32::from(p.range_last - p.range_first) + 1;
+        assert_eq!(out.stats.skipped_range_bins, processed);
+        assert!(out.points.is_empty());
+        Ok(())
+    }
+
+    #[test]
+    fn bad_parameters_are_a_readable_error() {
+        let mut params = Params::defaults(128);
+        params.loading = -1.0;
+        let err = CoreRunner::new(&SensorConfig::coloradar(), params).map(|_| ());
+        let text = err.err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(
+            text.contains("coloradar") && text.contains("loading"),
+            "{text}"
+        );
+    }
+}

@@ -1,0 +1,194 @@
+//! All-or-nothing output: files and directory trees appear complete or not at all.
+//!
+//! Guarantees (on the same file system, which a sibling temporary always is):
+//! - [`write_file_atomic`]: the target is either untouched or the complete new content. The data
+//!   goes to a hidden sibling `.NAME.tmp-PID-N`, is flushed to disk, then renamed over `NAME`.
+//! - [`StagedDir`]: a directory tree is built in a hidden sibling `.NAME.partial-PID-N` and
+//!   renamed to `NAME` by [`StagedDir::commit`]. The target must not exist or be an empty
+//!   directory, both when staging starts and at commit; an existing non-empty target is an
+//!   [`IoError::OutputExists`] and is never merged into or replaced. Dropping an uncommitted
+//!   `StagedDir` (an error return or a panic) deletes the staging tree.
+//!
+//! A process killed by a signal or a power cut can leave a hidden temporary sibling behind; the
+//! target itself is never partial. Parent directories of the target are created as needed and
+//! are not removed on failure.
+
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use super::IoError;
+
+static COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// A hidden sibling name for `target`: `.NAME.<tag>-PID-N`.
+fn sibling(target: &Path, tag: &str) -> Result<PathBuf, IoError> {
+    let name = target.file_name().ok_or_else(|| {
+        IoError::invalid(
+            target,
+            "output path has no file name; expected a path like DIR/NAME",
+        )
+    })?;
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let hidden = format!(
+        ".{}.{tag}-{}-{n}",
+        name.to_string_lossy(),
+        std::process::id()
+    );
+    Ok(target.with_file_name(hidden))
+}
+
+/// Parent directory of `target` (`.` for a bare name), created if missing.
+fn ensure_parent(target: &Path) -> Result<(), IoError> {
+    match target.parent() {
+        Some(p) if !p.as_os_str().is_empty() => {
+            fs::create_dir_all(p).map_err(|e| IoError::os(p, "create directory", e))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Write `contents` to `path` atomically: a temporary sibling, flushed, then renamed over
+/// `path`. On error the temporary is removed and `path` is untouched.
+pub fn write_file_atomic(path: &Path, contents: &[u8]) -> Result<(), IoError> {
+    ensure_parent(path)?;
+    let tmp = sibling(path, "tmp")?;
+    let result = (|| {
+        let mut f = fs::File::create(&tmp).map_err(|e| IoError::os(&tmp, "create", e))?;
+        f.write_all(contents)
+            .map_err(|e| IoError::os(&tmp, "write", e))?;
+        f.sync_all().map_err(|e| IoError::os(&tmp, "flush", e))?;
+        drop(f);
+        fs::rename(&tmp, path)
+            .map_err(|e| IoError::os(&tmp, format!("rename to {}", path.display()), e))
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Fail unless `target` is absent or an empty directory.
+fn check_target_free(target: &Path) -> Result<(), IoError> {
+    match fs::symlink_metadata(target) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(IoError::os(target, "inspect", e)),
+        Ok(meta) if meta.is_dir() => {
+            let mut entries = fs::read_dir(target).map_err(|e| IoError::os(target, "list", e))?;
+            if entries.next().is_none() {
+                Ok(())
+            } else {
+                Err(IoError::OutputExists {
+                    path: target.to_path_buf(),
+                })
+            }
+        }
+        Ok(_) => Err(IoError::OutputExists {
+            path: target.to_path_buf(),
+        }),
+    }
+}
+
+/// A directory tree under construction in a hidden sibling of its target; see the module docs.
+///
+/// Write everything under [`StagedDir::path`], then call [`StagedDir::commit`].
+#[derive(Debug)]
+pub struct StagedDir {
+    target: PathBuf,
+    staging: PathBuf,
+    committed: bool,
+}
+
+impl StagedDir {
+    /// Start staging `target`, which must not exist or be an empty directory.
+    pub fn new(target: &Path) -> Result<Self, IoError> {
+        check_target_free(target)?;
+        ensure_parent(target)?;
+        let staging = sibling(target, "partial")?;
+        fs::create_dir(&staging).map_err(|e| IoError::os(&staging, "create directory", e))?;
+        Ok(Self {
+            target: target.to_path_buf(),
+            staging,
+            committed: false,
+        })
+    }
+
+    /// The staging directory: write the tree here.
+    pub fn path(&self) -> &Path {
+        &self.staging
+    }
+
+    /// The final location.
+    pub fn target(&self) -> &Path {
+        &self.target
+    }
+
+    /// Move the finished tree to the target. Fails (and deletes the staging tree) if the target
+    /// has become non-empty meanwhile.
+    pub fn commit(mut self) -> Result<(), IoError> {
+        check_target_free(&self.target)?;
+        if self.target.is_dir() {
+            // An empty directory: rename(2) would replace it on Linux but not everywhere.
+            fs::remove_dir(&self.target)
+                .map_err(|e| IoError::os(&self.target, "replace empty directory", e))?;
+        }
+        fs::rename(&self.staging, &self.target).map_err(|e| {
+            IoError::os(
+                &self.staging,
+                format!("rename to {}", self.target.display()),
+                e,
+            )
+        })?;
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for StagedDir {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = fs::remove_dir_all(&self.staging);
+        }
+    }
+}
+
+/// Create `dir` (and parents) inside a staging tree.
+pub(crate) fn create_dir(dir: &Path) -> Result<(), IoError> {
+    fs::create_dir_all(dir).map_err(|e| IoError::os(dir, "create directory", e))
+}
+
+/// Write a file inside a staging tree (atomicity comes from the tree's rename).
+pub(crate) fn write_plain(path: &Path, contents: &[u8]) -> Result<(), IoError> {
+    fs::write(path, contents).map_err(|e| IoError::os(path, "write", e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn staged_dir_commits_or_vanishes() -> Result<(), IoError> {
+        let tmp = tempfile::tempdir().map_err(|e| IoError::os(Path::new("tmp"), "create", e))?;
+        let target = tmp.path().join("out");
+        {
+            let s = StagedDir::new(&target)?;
+            write_plain(&s.path().join("a.txt"), b"a")?;
+            // dropped without commit
+        }
+        assert!(!target.exists());
+        assert_eq!(fs::read_dir(tmp.path()).map(|d| d.count()).unwrap_or(99), 0);
+        let s = StagedDir::new(&target)?;
+        write_plain(&s.path().join("a.txt"), b"a")?;
+        s.commit()?;
+        assert_eq!(
+            fs::read(target.join("a.txt")).ok().as_deref(),
+            Some(&b"a"[..])
+        );
+        assert!(matches!(
+            StagedDir::new(&target),
+            Err(IoError::OutputExists { .. })
+        ));
+        Ok(())
+    }
+}
