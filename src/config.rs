@@ -352,6 +352,37 @@ impl Params {
         }
     }
 
+    /// Every field zero (`false`, `Rectangular`): the parameters of an unconfigured chain,
+    /// whose `static` must be all-zero bytes to live in `.bss`.
+    pub(crate) const fn zeroed() -> Self {
+        Self {
+            range_first: 0,
+            range_last: 0,
+            range_window: WindowKind::Rectangular,
+            doppler_window: WindowKind::Rectangular,
+            loading: 0.0,
+            forward_backward: false,
+            tdm_compensation: false,
+            tdm_azimuth_search: 0,
+            subgrid: false,
+            azimuth_span_deg: (0.0, 0.0),
+            elevation_span_deg: (0.0, 0.0),
+            cfar: CfarParams {
+                guard_range: 0,
+                guard_azimuth: 0,
+                train_range: 0,
+                train_azimuth: 0,
+                quantile: 0.0,
+                threshold_db: 0.0,
+                edge_skip_azimuth: 0,
+            },
+            elevation: ElevationParams {
+                max_peaks: 0,
+                peak_range_db: 0.0,
+            },
+        }
+    }
+
     pub(crate) fn validate(&self, samples: usize, az_bins: usize) -> Result<(), ConfigError> {
         if self.range_first > self.range_last || usize::from(self.range_last) >= samples {
             return Err(ConfigError::OutOfRange(Param::RangeWindow));

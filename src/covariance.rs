@@ -13,22 +13,21 @@ pub const fn zero<const D: usize>() -> Matrix<D> {
     [[Complex32::new(0.0, 0.0); D]; D]
 }
 
-/// `R = X·Xᴴ / K` of one range bin's `M × K` snapshots, exactly Hermitian (the upper
-/// triangle is computed and mirrored; the diagonal is real).
-pub fn covariance<const M: usize, const K: usize>(
-    snapshots: &[[Complex32; K]; M],
-    r: &mut Matrix<M>,
-) {
+/// `R = X·Xᴴ / K` of the first `D` rows of one range bin's snapshots, exactly Hermitian
+/// (the upper triangle is computed and mirrored; the diagonal is real). Rows missing from
+/// `snapshots` count as zero.
+pub fn covariance<const D: usize, const K: usize>(snapshots: &[[Complex32; K]], r: &mut Matrix<D>) {
+    let row = |i: usize| snapshots.get(i).map_or(&[][..], |x| &x[..]);
     let scale = 1.0 / K as f32;
-    for i in 0..M {
-        let xi = &snapshots[i];
+    for i in 0..D {
+        let xi = row(i);
         let mut p = 0.0f32;
         for v in xi.iter() {
             p += v.norm_sqr();
         }
         r[i][i] = Complex32::new(p * scale, 0.0);
-        for j in (i + 1)..M {
-            let xj = &snapshots[j];
+        for j in (i + 1)..D {
+            let xj = row(j);
             let mut acc = Complex32::new(0.0, 0.0);
             for (a, b) in xi.iter().zip(xj.iter()) {
                 acc += a * b.conj();

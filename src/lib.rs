@@ -19,7 +19,7 @@
 //!
 //! let dbe = p::dbe().unwrap();
 //! let mut storage: Box<p::CubeStorage> =
-//!     vec![[[Default::default(); p::LOOPS]; p::VIRTUAL]; p::SAMPLES].try_into().unwrap();
+//!     vec![[[[0; 2]; p::LOOPS]; p::VIRTUAL]; p::SAMPLES].try_into().unwrap();
 //! let mut cube = p::Cube::new(&mut storage);
 //! let mut work = Box::new(p::Workspace::new());
 //! let mut cloud = Box::new(p::PointCloud::new());

@@ -3,10 +3,11 @@
 //!
 //! ```text
 //! per chirp  push_chirp : DC removal, window, range FFT ──▶ Cube[bin][row][loop]
-//! per frame  process    : for each kept range bin b
-//!                            R_b = X·Xᴴ/K (M×M, kept in the Workspace)
-//!                            RA[b][i] = Capon power of the AZ×AZ block (FB, loading)
+//! per frame  process    : for each kept range bin b (dequantised into the f32 block)
+//!                            R_b = X·Xᴴ/K of the AZ azimuth rows
+//!                            RA[b][i] = Capon power of R_b (FB, loading)
 //!                         OS-CFAR on RA ──▶ detections (b, i)
+//!                         per detection bin: the full M×M R_b, once per distinct bin
 //!                         per detection: TDM-compensate R_b with the beam's Doppler,
 //!                            refine azimuth, sweep elevation Capon on R_b (no FB),
 //!                            per peak: Capon weight ──▶ slow time ──▶ Doppler FFT ──▶ Point
@@ -22,7 +23,7 @@ use crate::config::{
 use crate::covariance::{
     covariance, forward_backward, leading_block, load_diagonal, rotate_rows, zero, Matrix,
 };
-use crate::cube::{ChirpId, Cube, FrameError};
+use crate::cube::{ChirpId, Cube, FrameError, Snapshots};
 use crate::doppler::doppler_peak;
 use crate::points::{Point, PointCloud};
 use crate::range::RangeFft;
@@ -30,22 +31,31 @@ use crate::range::RangeFft;
 const ZERO: Complex32 = Complex32::new(0.0, 0.0);
 const ONE: Complex32 = Complex32::new(1.0, 0.0);
 
-/// Mutable per-frame state besides the cube: covariances, the range–azimuth map, the CFAR
-/// scratch and the detection list. Construct it once (it is `const`), reuse it every frame.
+/// Mutable per-frame state besides the cube: the `f32` snapshots of the range bin in flight,
+/// the range–azimuth map, the CFAR scratch and the detection list. Construct it once (it is
+/// `const`), reuse it every frame.
 #[derive(Clone, Debug)]
-pub struct Workspace<const N: usize, const M: usize, const NAZ: usize, const DET: usize> {
-    cov: [Matrix<M>; N],
+pub struct Workspace<
+    const N: usize,
+    const M: usize,
+    const K: usize,
+    const NAZ: usize,
+    const DET: usize,
+> {
+    block: Snapshots<M, K>,
     ra: [[f32; NAZ]; N],
     floor: [f32; N],
     scratch: [f32; MAX_TRAINING_CELLS],
     detections: Detections<DET>,
 }
 
-impl<const N: usize, const M: usize, const NAZ: usize, const DET: usize> Workspace<N, M, NAZ, DET> {
+impl<const N: usize, const M: usize, const K: usize, const NAZ: usize, const DET: usize>
+    Workspace<N, M, K, NAZ, DET>
+{
     /// A zeroed workspace.
     pub const fn new() -> Self {
         Self {
-            cov: [zero::<M>(); N],
+            block: [[ZERO; K]; M],
             ra: [[0.0; NAZ]; N],
             floor: [0.0; N],
             scratch: [0.0; MAX_TRAINING_CELLS],
@@ -63,15 +73,10 @@ impl<const N: usize, const M: usize, const NAZ: usize, const DET: usize> Workspa
     pub fn detections(&self) -> &[Detection] {
         self.detections.as_slice()
     }
-
-    /// The covariance `R = X·Xᴴ/K` (no loading) of range bin `b` of the last frame.
-    pub fn covariance(&self, b: usize) -> Option<&Matrix<M>> {
-        self.cov.get(b)
-    }
 }
 
-impl<const N: usize, const M: usize, const NAZ: usize, const DET: usize> Default
-    for Workspace<N, M, NAZ, DET>
+impl<const N: usize, const M: usize, const K: usize, const NAZ: usize, const DET: usize> Default
+    for Workspace<N, M, K, NAZ, DET>
 {
     fn default() -> Self {
         Self::new()
@@ -99,7 +104,9 @@ pub struct Dbe<
     geometry: AntennaGeometry<TX, RX>,
     params: Params,
     layout: ArrayLayout<TX, RX, M>,
-    coupling: Option<[[Complex32; N]; M]>,
+    /// Coupling calibration per cube row (all zero, and unused, when `coupling_on` is false).
+    coupling: [[Complex32; N]; M],
+    coupling_on: bool,
     range: RangeFft<N>,
     doppler_window: [f32; K],
     az_mu: [f32; NAZ],
@@ -129,6 +136,56 @@ impl<
         geometry: AntennaGeometry<TX, RX>,
         params: Params,
     ) -> Result<Self, ConfigError> {
+        let mut dbe = Self::unconfigured();
+        dbe.configure(waveform, geometry, params)?;
+        Ok(dbe)
+    }
+
+    /// A chain whose every byte is zero, `const`, so that a `static` of it lands in `.bss`
+    /// (no flash image, no copy at boot) on firmware; [`Self::configure`] it in place before
+    /// use. Unconfigured, it never panics and produces no points.
+    pub const fn unconfigured() -> Self {
+        Self {
+            waveform: Waveform {
+                adc_sample_rate_hz: 0.0,
+                slope_hz_per_s: 0.0,
+                start_frequency_hz: 0.0,
+                idle_time_s: 0.0,
+                ramp_end_time_s: 0.0,
+            },
+            geometry: AntennaGeometry {
+                tx: [(0.0, 0.0); TX],
+                rx: [(0.0, 0.0); RX],
+                f_design_hz: 0.0,
+            },
+            params: Params::zeroed(),
+            layout: ArrayLayout {
+                row_of: [[0; RX]; TX],
+                az: [0.0; M],
+                el: [0.0; M],
+                slot: [0; M],
+            },
+            coupling: [[ZERO; N]; M],
+            coupling_on: false,
+            range: RangeFft::unconfigured(),
+            doppler_window: [0.0; K],
+            az_mu: [0.0; NAZ],
+            el_nu: [0.0; NEL],
+            az_steer: [[ZERO; M]; NAZ],
+            el_steer: [[ZERO; M]; NEL],
+            range_bin_m: 0.0,
+            doppler_bin_mps: 0.0,
+        }
+    }
+
+    /// Validate the configuration and compute the tables in place (no chain-sized value on
+    /// the stack). On error `self` is unchanged. Any coupling calibration is removed.
+    pub fn configure(
+        &mut self,
+        waveform: Waveform,
+        geometry: AntennaGeometry<TX, RX>,
+        params: Params,
+    ) -> Result<(), ConfigError> {
         const {
             assert!(M == TX * RX, "M must equal TX · RX");
             assert!(AZ >= 2 && AZ < M, "the azimuth line needs 2..M elements");
@@ -144,61 +201,67 @@ impl<
         }
         let fc = waveform.center_frequency_hz(N);
         let kappa = (core::f64::consts::PI * fc / geometry.f_design_hz) as f32;
-        let az_mu = sine_grid::<NAZ>(params.azimuth_span_deg);
-        let el_nu = sine_grid::<NEL>(params.elevation_span_deg);
-        let mut az_steer = [[ZERO; M]; NAZ];
-        for (row, mu) in az_steer.iter_mut().zip(az_mu.iter()) {
+        self.az_mu = sine_grid::<NAZ>(params.azimuth_span_deg);
+        self.el_nu = sine_grid::<NEL>(params.elevation_span_deg);
+        for (row, mu) in self.az_steer.iter_mut().zip(self.az_mu.iter()) {
             for (a, pos) in row.iter_mut().zip(layout.az.iter()) {
                 *a = Complex32::from_polar(1.0, -kappa * mu * pos);
             }
         }
-        let mut el_steer = [[ZERO; M]; NEL];
-        for (row, nu) in el_steer.iter_mut().zip(el_nu.iter()) {
+        for (row, nu) in self.el_steer.iter_mut().zip(self.el_nu.iter()) {
             for (a, pos) in row.iter_mut().zip(layout.el.iter()) {
                 *a = Complex32::from_polar(1.0, -kappa * nu * pos);
             }
         }
-        Ok(Self {
-            waveform,
-            geometry,
-            params,
-            layout,
-            coupling: None,
-            range: RangeFft::new(params.range_window),
-            doppler_window: params.doppler_window.coefficients(),
-            az_mu,
-            el_nu,
-            az_steer,
-            el_steer,
-            range_bin_m: waveform.range_bin_m(N) as f32,
-            doppler_bin_mps: waveform.doppler_bin_mps(N, K, TX) as f32,
-        })
+        self.waveform = waveform;
+        self.geometry = geometry;
+        self.params = params;
+        self.layout = layout;
+        self.coupling_on = false;
+        self.range = RangeFft::new(params.range_window);
+        self.doppler_window = params.doppler_window.coefficients();
+        self.range_bin_m = waveform.range_bin_m(N) as f32;
+        self.doppler_bin_mps = waveform.doppler_bin_mps(N, K, TX) as f32;
+        Ok(())
     }
 
-    /// Attach a coupling calibration in data order `[tx][rx][range bin]`, subtracted from the
-    /// range-FFT output of every chirp (same units: unnormalised FFT of the windowed,
-    /// DC-removed chirp). Range bins beyond a table's length are not corrected.
+    /// [`Self::set_coupling`], by value.
     pub fn with_coupling(
         mut self,
         coupling: &[[&[Complex32]; RX]; TX],
     ) -> Result<Self, ConfigError> {
-        let mut table = [[ZERO; N]; M];
+        self.set_coupling(coupling)?;
+        Ok(self)
+    }
+
+    /// Attach a coupling calibration in data order `[tx][rx][range bin]`, subtracted from the
+    /// range-FFT output of every chirp (same units: unnormalised FFT of the windowed,
+    /// DC-removed chirp). Range bins beyond a table's length are not corrected. On error the
+    /// previous calibration is kept.
+    pub fn set_coupling(&mut self, coupling: &[[&[Complex32]; RX]; TX]) -> Result<(), ConfigError> {
+        for bins in coupling.iter().flatten() {
+            if bins.len() > N {
+                return Err(ConfigError::OutOfRange(Param::Coupling));
+            }
+            if bins.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())) {
+                return Err(ConfigError::NotFinite(Param::Coupling));
+            }
+        }
+        for row in self.coupling.iter_mut() {
+            *row = [ZERO; N];
+        }
         for (t, per_rx) in coupling.iter().enumerate() {
             for (r, bins) in per_rx.iter().enumerate() {
-                if bins.len() > N {
-                    return Err(ConfigError::OutOfRange(Param::Coupling));
-                }
                 let row = usize::from(self.layout.row_of[t][r]);
-                for (dst, src) in table[row].iter_mut().zip(bins.iter()) {
-                    if !(src.re.is_finite() && src.im.is_finite()) {
-                        return Err(ConfigError::NotFinite(Param::Coupling));
+                if let Some(dst) = self.coupling.get_mut(row) {
+                    for (d, s) in dst.iter_mut().zip(bins.iter()) {
+                        *d = *s;
                     }
-                    *dst = *src;
                 }
             }
         }
-        self.coupling = Some(table);
-        Ok(self)
+        self.coupling_on = true;
+        Ok(())
     }
 
     /// The waveform.
@@ -251,26 +314,14 @@ impl<
         id: ChirpId,
         chirp: &[[[i16; 2]; N]; RX],
     ) -> Result<(), FrameError> {
-        let Some(k) = cube.accept(id, TX) else {
-            return cube.status(TX).and(Err(FrameError::TooManyChirps));
-        };
-        let Some(rows) = self.layout.row_of.get(usize::from(id.tx_slot)) else {
-            return Ok(());
-        };
-        let mut spectrum = [ZERO; N];
-        for (samples, &row) in chirp.iter().zip(rows.iter()) {
-            let row = usize::from(row);
-            self.range.process(samples, &mut spectrum);
-            if let Some(c) = self.coupling.as_ref().and_then(|c| c.get(row)) {
-                for (s, c) in spectrum.iter_mut().zip(c.iter()) {
-                    *s -= *c;
-                }
-            }
-            for (b, v) in spectrum.iter().enumerate() {
-                cube.set(b, row, k, *v);
-            }
-        }
-        Ok(())
+        crate::range::ingest(
+            &self.range,
+            &self.layout.row_of,
+            self.coupling_on.then_some(&self.coupling),
+            cube,
+            id,
+            chirp,
+        )
     }
 
     /// Process a complete frame into `out`. Fails only when the cube is not a complete,
@@ -279,14 +330,13 @@ impl<
     pub fn process<const DET: usize, const P: usize>(
         &self,
         cube: &Cube<'_, N, M, K>,
-        work: &mut Workspace<N, M, NAZ, DET>,
+        work: &mut Workspace<N, M, K, NAZ, DET>,
         out: &mut PointCloud<P>,
     ) -> Result<(), FrameError> {
         out.clear();
         cube.status(TX)?;
         let first = usize::from(self.params.range_first);
         let last = usize::from(self.params.range_last).min(N - 1);
-        let bins = cube.bins();
 
         // Stage 1: covariance per range bin, azimuth Capon spectrum → RA map.
         for row in work.ra.iter_mut() {
@@ -294,16 +344,13 @@ impl<
         }
         work.floor = [0.0; N];
         for b in first..=last {
-            let (Some(snap), Some(cov), Some(ra), Some(floor)) = (
-                bins.get(b),
-                work.cov.get_mut(b),
-                work.ra.get_mut(b),
-                work.floor.get_mut(b),
-            ) else {
+            let (Some(ra), Some(floor)) = (work.ra.get_mut(b), work.floor.get_mut(b)) else {
                 continue;
             };
-            covariance(snap, cov);
-            match self.azimuth_capon(cov) {
+            cube.snapshots(b, &mut work.block);
+            let mut cov = zero::<AZ>();
+            covariance(&work.block[..], &mut cov);
+            match self.azimuth_capon(&cov) {
                 Some((capon, delta)) => {
                     // P(θ) ≥ δ / AZ: the loading floor of this row (see `cfar`).
                     *floor = delta / AZ as f32;
@@ -328,14 +375,25 @@ impl<
         out.stats.detections = work.detections.as_slice().len() as u32;
         out.stats.detection_overflow = work.detections.overflow;
 
-        // Stages 3–5 per detection.
-        for det in work.detections.as_slice() {
+        // Stages 3–5 per detection; the full covariance once per distinct range bin (the
+        // detections come in range order unless an overflow replaced some).
+        let Workspace {
+            block,
+            ra,
+            detections,
+            ..
+        } = work;
+        let mut cov = zero::<M>();
+        let mut cov_bin = usize::MAX;
+        for det in detections.as_slice() {
             let b = usize::from(det.range_bin);
-            let (Some(snap), Some(cov)) = (bins.get(b), work.cov.get(b)) else {
-                continue;
-            };
+            if b != cov_bin {
+                cube.snapshots(b, block);
+                covariance(&block[..], &mut cov);
+                cov_bin = b;
+            }
             let before = out.stats.points + out.stats.point_overflow;
-            self.resolve(det, snap, cov, &work.ra, out);
+            self.resolve(det, block, &cov, ra, out);
             if out.stats.points + out.stats.point_overflow == before {
                 out.stats.detections_without_point += 1;
             }
@@ -343,10 +401,10 @@ impl<
         Ok(())
     }
 
-    /// Capon solver of the azimuth line's block of `cov` (FB averaging if on, loading), and
-    /// the loading `δ` it used.
-    fn azimuth_capon(&self, cov: &Matrix<M>) -> Option<(Capon<AZ>, f32)> {
-        let mut r = leading_block::<M, AZ>(cov);
+    /// Capon solver of the azimuth line's covariance (FB averaging if on, loading), and the
+    /// loading `δ` it used.
+    fn azimuth_capon(&self, cov: &Matrix<AZ>) -> Option<(Capon<AZ>, f32)> {
+        let mut r = *cov;
         if self.params.forward_backward {
             forward_backward(&mut r);
         }
@@ -393,7 +451,7 @@ impl<
         let mut r = *cov;
         let mut rot = [ONE; M];
         if self.params.tdm_compensation {
-            let Some((az, _)) = self.azimuth_capon(&r) else {
+            let Some((az, _)) = self.azimuth_capon(&leading_block(&r)) else {
                 return;
             };
             let w = az.weight(&azimuth_part::<M, AZ>(&self.az_steer[i]));
@@ -406,7 +464,7 @@ impl<
                 *o = Complex32::from_polar(1.0, per_slot * f32::from(slot));
             }
             rotate_rows(&mut r, &rot);
-            if let Some((az, _)) = self.azimuth_capon(&r) {
+            if let Some((az, _)) = self.azimuth_capon(&leading_block(&r)) {
                 i = self.climb_azimuth(&az, i);
                 let power = |i: usize| match self.az_steer.get(i) {
                     Some(s) => az.power(&azimuth_part::<M, AZ>(s)),

@@ -35,7 +35,7 @@ pub mod coloradar {
     /// A cube over borrowed storage.
     pub type Cube<'a> = crate::cube::Cube<'a, SAMPLES, VIRTUAL, LOOPS>;
     /// Workspace.
-    pub type Workspace = crate::Workspace<SAMPLES, VIRTUAL, AZIMUTH_BINS, DETECTIONS>;
+    pub type Workspace = crate::Workspace<SAMPLES, VIRTUAL, LOOPS, AZIMUTH_BINS, DETECTIONS>;
     /// Output.
     pub type PointCloud = crate::PointCloud<POINTS>;
     /// One chirp of all RX as the ADC delivers it.
@@ -54,7 +54,7 @@ pub mod coloradar {
     pub type FftChain =
         crate::FftChain<SAMPLES, LOOPS, TX, RX, VIRTUAL, AZIMUTH, AZIMUTH_BINS, ELEVATION_BINS>;
     /// The FFT chain's workspace (range–Doppler map `SAMPLES·LOOPS·4` bytes).
-    pub type FftWorkspace = crate::FftWorkspace<SAMPLES, LOOPS, DETECTIONS>;
+    pub type FftWorkspace = crate::FftWorkspace<SAMPLES, VIRTUAL, LOOPS, DETECTIONS>;
 
     /// The FFT chain with ColoRadar's waveform, geometry and defaults
     /// ([`crate::FftParams::defaults`]).
@@ -100,7 +100,7 @@ pub mod iwr6843 {
     /// A cube over borrowed storage.
     pub type Cube<'a> = crate::cube::Cube<'a, SAMPLES, VIRTUAL, LOOPS>;
     /// Workspace.
-    pub type Workspace = crate::Workspace<SAMPLES, VIRTUAL, AZIMUTH_BINS, DETECTIONS>;
+    pub type Workspace = crate::Workspace<SAMPLES, VIRTUAL, LOOPS, AZIMUTH_BINS, DETECTIONS>;
     /// Output.
     pub type PointCloud = crate::PointCloud<POINTS>;
     /// One chirp of all RX.
@@ -119,7 +119,7 @@ pub mod iwr6843 {
     pub type FftChain =
         crate::FftChain<SAMPLES, LOOPS, TX, RX, VIRTUAL, AZIMUTH, AZIMUTH_BINS, ELEVATION_BINS>;
     /// The FFT chain's workspace (range–Doppler map `SAMPLES·LOOPS·4` bytes).
-    pub type FftWorkspace = crate::FftWorkspace<SAMPLES, LOOPS, DETECTIONS>;
+    pub type FftWorkspace = crate::FftWorkspace<SAMPLES, VIRTUAL, LOOPS, DETECTIONS>;
 
     /// The FFT chain with the fixture's (partly assumed) waveform, inferred geometry and
     /// defaults ([`crate::FftParams::defaults`]).

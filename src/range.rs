@@ -2,6 +2,7 @@
 
 use num_complex::Complex32;
 
+use crate::cube::{ChirpId, Cube, FrameError};
 use crate::fft::fft_in_place;
 
 /// Range processing of one chirp of one virtual antenna, with its window table.
@@ -11,6 +12,11 @@ pub struct RangeFft<const N: usize> {
 }
 
 impl<const N: usize> RangeFft<N> {
+    /// An all-zero window (everything maps to zero), for `const` construction.
+    pub const fn unconfigured() -> Self {
+        Self { window: [0.0; N] }
+    }
+
     /// Precompute the window.
     pub fn new(window: crate::window::WindowKind) -> Self {
         Self {
@@ -47,4 +53,43 @@ impl<const N: usize> RangeFft<N> {
         }
         fft_in_place(out);
     }
+}
+
+/// Ingest one chirp into `cube` (shared by both chains): check its TDM order, range-process
+/// each RX, subtract the coupling calibration of its cube row, store it.
+///
+/// `rows[t][r]` is the cube row of TX slot `t`, RX `r`; `coupling[row]` the optional
+/// calibration per cube row.
+pub(crate) fn ingest<
+    const N: usize,
+    const K: usize,
+    const TX: usize,
+    const RX: usize,
+    const M: usize,
+>(
+    range: &RangeFft<N>,
+    rows: &[[u8; RX]; TX],
+    coupling: Option<&[[Complex32; N]; M]>,
+    cube: &mut Cube<'_, N, M, K>,
+    id: ChirpId,
+    chirp: &[[[i16; 2]; N]; RX],
+) -> Result<(), FrameError> {
+    let Some(k) = cube.accept(id, TX) else {
+        return cube.status(TX).and(Err(FrameError::TooManyChirps));
+    };
+    let Some(rows) = rows.get(usize::from(id.tx_slot)) else {
+        return Ok(());
+    };
+    let mut spectrum = [Complex32::new(0.0, 0.0); N];
+    for (samples, &row) in chirp.iter().zip(rows.iter()) {
+        let row = usize::from(row);
+        range.process(samples, &mut spectrum);
+        if let Some(c) = coupling.and_then(|c| c.get(row)) {
+            for (s, c) in spectrum.iter_mut().zip(c.iter()) {
+                *s -= *c;
+            }
+        }
+        cube.store(row, k, &spectrum);
+    }
+    Ok(())
 }

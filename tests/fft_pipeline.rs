@@ -526,9 +526,11 @@ fn range_doppler_map_matches_a_direct_dft() {
         (70, 100),
         (125, 64),
     ];
+    let mut block = Box::new([[dbe_radar::Complex32::new(0.0, 0.0); p::LOOPS]; p::VIRTUAL]);
     for (b, d) in cells {
         let mut power = 0.0f64;
-        for row in cube.bins()[b].iter() {
+        cube.snapshots(b, &mut block);
+        for row in block.iter() {
             let (mut re, mut im) = (0.0f64, 0.0f64);
             for (k, (x, &wk)) in row.iter().zip(w.iter()).enumerate() {
                 let ph = -std::f64::consts::TAU * ((d * k) % p::LOOPS) as f64 / p::LOOPS as f64;
@@ -840,7 +842,12 @@ fn detection_and_point_capacities_overflow_gracefully() {
     let mut st = storage();
     let mut cube = p::Cube::new(&mut st);
     feed(&c, &mut cube, |i| chirps[i]);
-    let mut work = Box::new(dbe_radar::FftWorkspace::<{ p::SAMPLES }, { p::LOOPS }, 2>::new());
+    let mut work = Box::new(dbe_radar::FftWorkspace::<
+        { p::SAMPLES },
+        { p::VIRTUAL },
+        { p::LOOPS },
+        2,
+    >::new());
     let mut cloud = Box::new(PointCloud::<1>::new());
     c.process(&cube, &mut work, &mut cloud).unwrap();
     assert_eq!(cloud.stats.detections, 2);
@@ -857,20 +864,22 @@ fn detection_and_point_capacities_overflow_gracefully() {
 }
 
 /// Pins the FFT chain's buffers (see the module docs of `fft_pipeline`): the range–Doppler
-/// map is `N·K·4` bytes and the only frame-sized buffer besides the shared cube.
+/// map is `N·K·4` bytes and the only frame-sized buffer besides the shared cube; one range
+/// bin's snapshots (`M·K·8`) are dequantised at a time.
 #[test]
 fn buffer_sizes() {
     use core::mem::size_of;
     let w = size_of::<usize>();
     let round8 = |x: usize| x.div_ceil(8) * 8;
-    // RD map N·K·4 + CFAR scratch 1024·4 + detections DET·12 (+ length and overflow count).
-    let ws = 128 * 128 * 4 + 1024 * 4 + 128 * 12;
-    assert_eq!(ws, 71_168);
+    // Bin in flight M·K·8 + RD map N·K·4 + CFAR scratch 1024·4 + detections DET·12
+    // (+ length and overflow count).
+    let ws = 12 * 128 * 8 + 128 * 128 * 4 + 1024 * 4 + 128 * 12;
+    assert_eq!(ws, 83_456);
     assert_eq!(size_of::<p::FftWorkspace>(), round8(ws + w + 4));
     {
         use dbe_radar::presets::iwr6843 as q;
-        let ws = 256 * 64 * 4 + 1024 * 4 + 128 * 12;
-        assert_eq!(ws, 71_168);
+        let ws = 12 * 64 * 8 + 256 * 64 * 4 + 1024 * 4 + 128 * 12;
+        assert_eq!(ws, 77_312);
         assert_eq!(size_of::<q::FftWorkspace>(), round8(ws + w + 4));
     }
     // Chain tables: coupling M·N·8, range window N·4, Doppler window K·4, twiddles K·8,

@@ -16,6 +16,7 @@ fn round8(x: usize) -> usize {
 #[test]
 fn element_sizes() {
     assert_eq!(size_of::<Complex32>(), 8);
+    assert_eq!(size_of::<dbe_radar::cube::CubeSample>(), 4);
     assert_eq!(size_of::<Detection>(), 12);
     assert_eq!(size_of::<Point>(), 32);
 }
@@ -23,13 +24,14 @@ fn element_sizes() {
 #[test]
 fn coloradar_buffers() {
     use presets::coloradar as p;
-    // Cube: N · M · K complex f32.
-    assert_eq!(size_of::<p::CubeStorage>(), 128 * 12 * 128 * 8);
-    assert_eq!(size_of::<p::CubeStorage>(), 1_572_864);
-    // Workspace: covariances N·M²·8 + RA map N·NAZ·4 + loading floor N·4
+    // Cube: N · M · K complex i16 mantissas; the cube's bookkeeping (exponents M·K, counters).
+    assert_eq!(size_of::<p::CubeStorage>(), 128 * 12 * 128 * 4);
+    assert_eq!(size_of::<p::CubeStorage>(), 786_432);
+    assert_eq!(size_of::<p::Cube<'_>>(), round8(W + 12 * 128 + 16));
+    // Workspace: bin in flight M·K·8 + RA map N·NAZ·4 + loading floor N·4
     //            + CFAR scratch 1024·4 + detections DET·12 (+ length and overflow count).
-    let ws = 128 * 144 * 8 + 128 * 188 * 4 + 128 * 4 + MAX_TRAINING_CELLS * 4 + 128 * 12;
-    assert_eq!(ws, 249_856);
+    let ws = 12 * 128 * 8 + 128 * 188 * 4 + 128 * 4 + MAX_TRAINING_CELLS * 4 + 128 * 12;
+    assert_eq!(ws, 114_688);
     assert_eq!(size_of::<p::Workspace>(), round8(ws + W + 4));
     // Points: P · 32 + length + 6 statistics counters.
     assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 24));
@@ -44,10 +46,11 @@ fn coloradar_buffers() {
 #[test]
 fn iwr6843_buffers() {
     use presets::iwr6843 as p;
-    assert_eq!(size_of::<p::CubeStorage>(), 256 * 12 * 64 * 8);
-    assert_eq!(size_of::<p::CubeStorage>(), 1_572_864);
-    let ws = 256 * 144 * 8 + 256 * 188 * 4 + 256 * 4 + MAX_TRAINING_CELLS * 4 + 128 * 12;
-    assert_eq!(ws, 494_080);
+    assert_eq!(size_of::<p::CubeStorage>(), 256 * 12 * 64 * 4);
+    assert_eq!(size_of::<p::CubeStorage>(), 786_432);
+    assert_eq!(size_of::<p::Cube<'_>>(), round8(W + 12 * 64 + 16));
+    let ws = 12 * 64 * 8 + 256 * 188 * 4 + 256 * 4 + MAX_TRAINING_CELLS * 4 + 128 * 12;
+    assert_eq!(ws, 205_312);
     assert_eq!(size_of::<p::Workspace>(), round8(ws + W + 4));
     assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 24));
     let tables = 188 * 12 * 8 + 101 * 12 * 8 + (256 + 64) * 4 + (188 + 101) * 4 + 12 * 256 * 8;

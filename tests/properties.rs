@@ -26,7 +26,7 @@ fn steering<const D: usize>(phase_step: f32) -> [Complex32; D] {
 fn covariance_is_hermitian_and_positive_definite() {
     let x = random_snapshots::<12, 128>(1);
     let mut r: Matrix<12> = [[Complex32::new(0.0, 0.0); 12]; 12];
-    covariance(&x, &mut r);
+    covariance(&x[..], &mut r);
     for i in 0..12 {
         assert_eq!(r[i][i].im, 0.0);
         for j in 0..12 {
@@ -48,7 +48,7 @@ fn covariance_is_hermitian_and_positive_definite() {
 fn capon_weights_are_distortionless_and_power_matches_definition() {
     let x = random_snapshots::<8, 64>(2);
     let mut r: Matrix<8> = [[Complex32::new(0.0, 0.0); 8]; 8];
-    covariance(&x, &mut r);
+    covariance(&x[..], &mut r);
     let delta = load_diagonal(&mut r, 0.01);
     assert!(delta > 0.0);
     let capon = Capon::new(&r).expect("loaded covariance is positive definite");

@@ -255,6 +255,7 @@ fn detection_and_point_capacities_overflow_gracefully() {
     let mut work = Box::new(Workspace::<
         { p::SAMPLES },
         { p::VIRTUAL },
+        { p::LOOPS },
         { p::AZIMUTH_BINS },
         2,
     >::new());
@@ -264,4 +265,37 @@ fn detection_and_point_capacities_overflow_gracefully() {
     assert!(cloud.stats.detection_overflow >= 4, "{:?}", cloud.stats);
     assert_eq!(cloud.points().len(), 1);
     assert!(cloud.stats.point_overflow >= 1);
+}
+
+#[test]
+fn in_place_configuration_matches_new_and_rejects_without_change() {
+    let mut d = Box::new(p::Dbe::unconfigured());
+    // Unconfigured: no panic, no points.
+    let mut st = storage();
+    let mut cube = p::Cube::new(&mut st);
+    let chirp: p::Chirp = core::array::from_fn(|_| core::array::from_fn(|n| [n as i16, 7]));
+    feed(&d, &mut cube, |_| chirp);
+    let mut work = Box::new(p::Workspace::new());
+    let mut cloud = Box::new(p::PointCloud::new());
+    d.process(&cube, &mut work, &mut cloud).unwrap();
+    assert_eq!(cloud.points().len(), 0);
+
+    let defaults = Params::defaults(p::SAMPLES);
+    d.configure(Waveform::COLORADAR, AntennaGeometry::COLORADAR, defaults)
+        .unwrap();
+    let reference = dbe();
+    assert_eq!(d.azimuth_grid(), reference.azimuth_grid());
+    assert_eq!(d.layout(), reference.layout());
+    assert_eq!(d.range_bin_m(), reference.range_bin_m());
+    // A rejected configuration leaves the chain as it was.
+    let bad = Params {
+        loading: f32::NAN,
+        ..defaults
+    };
+    assert_eq!(
+        d.configure(Waveform::IWR6843_FIXTURE, AntennaGeometry::COLORADAR, bad),
+        Err(ConfigError::NotFinite(Param::Loading))
+    );
+    assert_eq!(d.waveform(), reference.waveform());
+    assert_eq!(d.params(), reference.params());
 }

@@ -9,7 +9,7 @@
 //! 1. calibrates the instruction clock ([`clock`]),
 //! 2. feeds the frame chirp by chirp in TDM order through a one-chirp "DMA" buffer and
 //!    processes it with a CFAR threshold no cell passes (measurement only, see below),
-//! 3. builds the real chain ([`dbe_radar::Dbe::new`]), repaints the stack ([`stack`]), feeds
+//! 3. configures the chain in place ([`dbe_radar::Dbe::configure`]), repaints the stack ([`stack`]), feeds
 //!    the frame again and processes it,
 //! 4. prints everything as lines ([`console`]) and returns; the binary exits through
 //!    semihosting with code 0 (any error: a message and a failure code).
@@ -53,7 +53,7 @@
 //! | `elevation_doppler` | `process`(real) − `process`(no detection) |
 //! | `process` | `process`(real) |
 //! | `total` | `ingest` + `process`: one frame |
-//! | `setup` | `Dbe::new` (once, not per frame) |
+//! | `setup` | `Dbe::configure` (once, not per frame) |
 #![no_std]
 #![deny(unsafe_code)]
 
@@ -62,7 +62,6 @@ pub mod console;
 pub mod stack;
 
 use core::fmt;
-use core::mem::MaybeUninit;
 
 use dbe_radar::cfar::{self, Detections, MAX_TRAINING_CELLS};
 use dbe_radar::cube::CubeStorage;
@@ -102,16 +101,15 @@ pub struct Buffers<
     const DET: usize,
     const P: usize,
 > {
-    /// Room for the configured chain (tables and parameters), built at run time.
-    /// `MaybeUninit` rather than `Option`: `None` of this type is not all-zero bits, which
-    /// would put the whole 42–55 KB slot in `.data` with an image of it in flash.
-    pub dbe: &'a mut MaybeUninit<Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>>,
+    /// The chain, `Dbe::unconfigured()` (all-zero bytes, so its `static` is in `.bss`),
+    /// configured in place at run time.
+    pub dbe: &'a mut Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>,
     /// Radar cube storage.
     pub cube: &'a mut CubeStorage<N, M, K>,
     /// The one-chirp buffer a DMA would fill.
     pub dma: &'a mut [[[i16; 2]; N]; RX],
     /// Per-frame workspace.
-    pub work: &'a mut Workspace<N, M, NAZ, DET>,
+    pub work: &'a mut Workspace<N, M, K, NAZ, DET>,
     /// Output points.
     pub cloud: &'a mut PointCloud<P>,
 }
@@ -189,8 +187,8 @@ fn load_chirp<const N: usize, const TX: usize, const RX: usize>(
     }
 }
 
-/// Build the chain into `slot`. Never inlined: `Dbe::new` returns its ~42–55 KB result by
-/// value, and the temporaries belong in a frame that is popped before the per-frame work.
+/// Configure the chain in place (`Dbe::configure`: no chain-sized value on the stack). Never
+/// inlined, so its temporaries belong to a frame popped before the per-frame work.
 #[inline(never)]
 fn configure<
     's,
@@ -203,12 +201,12 @@ fn configure<
     const NAZ: usize,
     const NEL: usize,
 >(
-    slot: &'s mut MaybeUninit<Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>>,
+    dbe: &'s mut Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>,
     preset: &Preset<TX, RX>,
     params: Params,
 ) -> Result<&'s mut Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>, ConfigError> {
-    let dbe = Dbe::new(preset.waveform, preset.geometry, params)?;
-    Ok(slot.write(dbe))
+    dbe.configure(preset.waveform, preset.geometry, params)?;
+    Ok(dbe)
 }
 
 /// Ticks of a whole frame's ingestion, fed chirp by chirp.
@@ -278,7 +276,7 @@ fn silent_split<
     silent: &Params,
     cube: &mut Cube<'_, N, M, K>,
     dma: &mut [[[i16; 2]; N]; RX],
-    work: &mut Workspace<N, M, NAZ, DET>,
+    work: &mut Workspace<N, M, K, NAZ, DET>,
     cloud: &mut PointCloud<P>,
     frame: &[u8],
 ) -> Result<(u32, u32), Failure> {

@@ -188,7 +188,7 @@ struct Engine<
 > {
     dbe: Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>,
     storage: Box<CubeStorage<N, M, K>>,
-    work: Box<Workspace<N, M, NAZ, DET>>,
+    work: Box<Workspace<N, M, K, NAZ, DET>>,
     cloud: Box<PointCloud<P>>,
     chirp: Box<[[[i16; 2]; N]; RX]>,
 }
@@ -241,9 +241,8 @@ impl<
             });
             dbe = dbe.with_coupling(&per_tx).map_err(config)?;
         }
-        let zero = Complex32::new(0.0, 0.0);
         let storage: Box<CubeStorage<N, M, K>> =
-            match vec![[[zero; K]; M]; N].into_boxed_slice().try_into() {
+            match vec![[[[0; 2]; K]; M]; N].into_boxed_slice().try_into() {
                 Ok(storage) => storage,
                 Err(_) => unreachable!("vec![_; N] holds exactly N range bins"),
             };

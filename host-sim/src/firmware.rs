@@ -769,7 +769,10 @@ impl ElfMemory {
 /// The firmware's statics worth naming, and what they hold.
 const NAMED_STATICS: [(&str, &str); 5] = [
     ("CUBE", "radar cube (`CubeStorage`)"),
-    ("WORKSPACE", "`Workspace` (covariances, RA map, CFAR)"),
+    (
+        "WORKSPACE",
+        "`Workspace` (range bin in flight, RA map, CFAR)",
+    ),
     ("DBE", "`Dbe` (steering tables, windows, parameters)"),
     ("CLOUD", "`PointCloud`"),
     ("DMA_CHIRP", "one-chirp DMA buffer"),
@@ -928,7 +931,7 @@ pub struct PresetBudget {
     pub buffers: Vec<Buffer>,
     /// Stack peak over the whole run, bytes.
     pub stack_peak_bytes: u64,
-    /// Stack peak up to and including `Dbe::new`, bytes.
+    /// Stack peak up to and including `Dbe::configure`, bytes.
     pub stack_peak_setup_bytes: u64,
     /// Stack peak of one frame (ingest + process) after setup, bytes.
     pub stack_peak_frame_bytes: u64,
@@ -1120,7 +1123,7 @@ pub fn render_markdown(budget: &Budget) -> String {
     row(&mut s, "**static RAM** (`.data` + `.bss`)", &|p| {
         format!("**{}**", thousands(p.static_ram_bytes))
     });
-    row(&mut s, "stack peak, setup (`Dbe::new`)", &|p| {
+    row(&mut s, "stack peak, setup (`Dbe::configure`)", &|p| {
         thousands(p.stack_peak_setup_bytes)
     });
     row(&mut s, "stack peak, one frame (ingest + process)", &|p| {
@@ -1159,7 +1162,7 @@ pub fn render_markdown(budget: &Budget) -> String {
         ),
         ("range_fft_chirp_max", "range FFT per chirp, worst"),
         ("ingest", "ingest: all K·TX chirps"),
-        ("azimuth_capon", "covariances + azimuth Capon (stage 1)"),
+        ("azimuth_capon", "azimuth covariances + Capon (stage 1)"),
         ("cfar", "OS-CFAR (stage 2)"),
         (
             "elevation_doppler",
@@ -1167,7 +1170,7 @@ pub fn render_markdown(budget: &Budget) -> String {
         ),
         ("process", "`process` (stages 1–5)"),
         ("total", "**per frame** (ingest + process)"),
-        ("setup", "setup: `Dbe::new` (once)"),
+        ("setup", "setup: `Dbe::configure` (once)"),
     ];
     for (key, label) in stages {
         row(&mut s, label, &|p| {

@@ -176,6 +176,9 @@ pub struct ReferenceOutput {
     pub options: ReferenceOptions,
     /// Radial velocity per Doppler bin, m/s (`λ / (2·K·T_loop)`).
     pub doppler_bin_mps: f64,
+    /// Largest quantisation step `2^e` of any chirp under [`CubePrecision::BlockFloat16`]
+    /// (0 for an exact cube): the resolution at which a quantised cube can be compared.
+    pub cube_step_max: f64,
 }
 
 /// One element of the virtual array.
@@ -607,17 +610,57 @@ pub enum CfarLevel {
 pub struct ReferenceOptions {
     /// The CFAR level rule.
     pub cfar_level: CfarLevel,
+    /// How range-FFT values are stored between ingestion and processing.
+    pub cube: CubePrecision,
 }
 
 impl ReferenceOptions {
-    /// Spec §3 as written.
+    /// Spec §3 as written, in full f64 precision.
     pub const SPEC: Self = Self {
         cfar_level: CfarLevel::OrderStatistic,
+        cube: CubePrecision::Exact,
     };
-    /// The core's contract (spec §3 plus the CFAR loading floor), as the harness uses it.
+    /// The core's contract (spec §3 plus the CFAR loading floor and the 16-bit block
+    /// floating-point cube), as the harness uses it.
     pub const CORE_CONTRACT: Self = Self {
         cfar_level: CfarLevel::LoadingFloor,
+        cube: CubePrecision::BlockFloat16,
     };
+}
+
+/// Storage precision of the range-FFT values (the radar cube).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum CubePrecision {
+    /// f64, as computed.
+    #[default]
+    Exact,
+    /// As the core stores them: per chirp (one virtual antenna, one loop) a power-of-two step
+    /// `2^e`, the smallest with `max(|re|, |im|) / 2^e ≤ 32767`, and each component rounded
+    /// half away from zero to a multiple of it, within ±32767 steps.
+    BlockFloat16,
+}
+
+/// Quantise one chirp's range spectrum as [`CubePrecision::BlockFloat16`] describes;
+/// returns the step (0 for an all-zero spectrum).
+fn block_float16(spectrum: &mut [Complex64]) -> f64 {
+    let peak = spectrum
+        .iter()
+        .map(|v| v.re.abs().max(v.im.abs()))
+        .fold(0.0f64, f64::max);
+    if !(peak > 0.0 && peak.is_finite()) {
+        return 0.0;
+    }
+    // peak / 32767 = f · 2^e with f in [1/2, 1): e = floor(log2(peak / 32767)) + 1.
+    let e = ((peak / 32767.0).log2().floor() as i32 + 1).clamp(-125, 125);
+    let step = 2f64.powi(e);
+    let q = |x: f64| {
+        let r = (x / step).abs() + 0.5;
+        r.floor().min(32767.0).copysign(x) * step
+    };
+    for v in spectrum.iter_mut() {
+        *v = Complex64::new(q(v.re), q(v.im));
+    }
+    step
 }
 
 /// How one map cell fares in the OS-CFAR test (see [`cfar_cell`]).
@@ -854,7 +897,7 @@ pub fn process_frame_with(
         });
     }
     let setup = Setup::new(sensor, params, azimuth_bins, elevation_bins)?;
-    let cube = range_cube(frame, sensor, &setup)?;
+    let (cube, cube_step_max) = range_cube(frame, sensor, &setup, options.cube)?;
 
     // Stage 1: covariance and azimuth Capon per processed range bin.
     let mut ra_map = vec![vec![0.0; azimuth_bins]; setup.n];
@@ -903,16 +946,18 @@ pub fn process_frame_with(
         points,
         options: *options,
         doppler_bin_mps: setup.doppler_bin_mps,
+        cube_step_max,
     })
 }
 
 /// Range FFT of every chirp: `cube[range bin]` is the `M × K` snapshot matrix (rows in
-/// [`VirtualArray`] order).
+/// [`VirtualArray`] order), and the largest quantisation step used (0 when exact).
 fn range_cube(
     frame: &AdcFrame,
     sensor: &SensorConfig,
     setup: &Setup,
-) -> Result<Vec<DMatrix<Complex64>>, ReferenceError> {
+    precision: CubePrecision,
+) -> Result<(Vec<DMatrix<Complex64>>, f64), ReferenceError> {
     let (n, k) = (setup.n, setup.k);
     let coupling = match &sensor.coupling {
         Some(c) => {
@@ -930,6 +975,7 @@ fn range_cube(
     let m = setup.array.len();
     let mut cube = vec![DMatrix::<Complex64>::zeros(m, k); n];
     let mut buf = vec![Complex64::new(0.0, 0.0); n];
+    let mut step_max = 0.0f64;
     for kk in 0..k {
         for t in 0..sensor.num_tx {
             for r in 0..sensor.num_rx {
@@ -950,6 +996,9 @@ fn range_cube(
                         *v -= Complex64::new(f64::from(cv.re), f64::from(cv.im));
                     }
                 }
+                if precision == CubePrecision::BlockFloat16 {
+                    step_max = step_max.max(block_float16(&mut buf));
+                }
                 let row = setup.array.row[t][r];
                 for (b, v) in buf.iter().enumerate() {
                     cube[b][(row, kk)] = *v;
@@ -957,7 +1006,7 @@ fn range_cube(
             }
         }
     }
-    Ok(cube)
+    Ok((cube, step_max))
 }
 
 /// `y_k = Σ_m conj(w_m) · rot_m · x_m[k]` over the first `w.len()` rows.

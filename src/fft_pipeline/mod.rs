@@ -94,7 +94,7 @@ pub use rd_cfar::{CfarKind, RdCfarParams, RdDetection, RdDetections};
 
 use crate::cfar::MAX_TRAINING_CELLS;
 use crate::config::{AntennaGeometry, ArrayLayout, ConfigError, Param, Params, Waveform};
-use crate::cube::{ChirpId, Cube, FrameError};
+use crate::cube::{ChirpId, Cube, FrameError, Snapshots};
 use crate::fft::fft_in_place;
 use crate::points::{Point, PointCloud};
 use crate::range::RangeFft;
@@ -181,16 +181,18 @@ impl FftParams {
 /// Mutable per-frame state of the FFT chain: the range–Doppler map, the CFAR scratch and the
 /// detection list. Construct it once (it is `const`), reuse it every frame.
 #[derive(Clone, Debug)]
-pub struct FftWorkspace<const N: usize, const K: usize, const DET: usize> {
+pub struct FftWorkspace<const N: usize, const M: usize, const K: usize, const DET: usize> {
+    block: Snapshots<M, K>,
     rd: [[f32; K]; N],
     scratch: [f32; MAX_TRAINING_CELLS],
     detections: RdDetections<DET>,
 }
 
-impl<const N: usize, const K: usize, const DET: usize> FftWorkspace<N, K, DET> {
+impl<const N: usize, const M: usize, const K: usize, const DET: usize> FftWorkspace<N, M, K, DET> {
     /// A zeroed workspace.
     pub const fn new() -> Self {
         Self {
+            block: [[ZERO; K]; M],
             rd: [[0.0; K]; N],
             scratch: [0.0; MAX_TRAINING_CELLS],
             detections: RdDetections::new(),
@@ -210,7 +212,9 @@ impl<const N: usize, const K: usize, const DET: usize> FftWorkspace<N, K, DET> {
     }
 }
 
-impl<const N: usize, const K: usize, const DET: usize> Default for FftWorkspace<N, K, DET> {
+impl<const N: usize, const M: usize, const K: usize, const DET: usize> Default
+    for FftWorkspace<N, M, K, DET>
+{
     fn default() -> Self {
         Self::new()
     }
@@ -430,26 +434,14 @@ impl<
         id: ChirpId,
         chirp: &[[[i16; 2]; N]; RX],
     ) -> Result<(), FrameError> {
-        let Some(k) = cube.accept(id, TX) else {
-            return cube.status(TX).and(Err(FrameError::TooManyChirps));
-        };
-        let Some(rows) = self.layout.row_of.get(usize::from(id.tx_slot)) else {
-            return Ok(());
-        };
-        let mut spectrum = [ZERO; N];
-        for (samples, &row) in chirp.iter().zip(rows.iter()) {
-            let row = usize::from(row);
-            self.range.process(samples, &mut spectrum);
-            if let Some(c) = self.coupling.as_ref().and_then(|c| c.get(row)) {
-                for (s, c) in spectrum.iter_mut().zip(c.iter()) {
-                    *s -= *c;
-                }
-            }
-            for (b, v) in spectrum.iter().enumerate() {
-                cube.set(b, row, k, *v);
-            }
-        }
-        Ok(())
+        crate::range::ingest(
+            &self.range,
+            &self.layout.row_of,
+            self.coupling.as_ref(),
+            cube,
+            id,
+            chirp,
+        )
     }
 
     /// Process a complete frame into `out`. Fails only when the cube is not a complete,
@@ -458,27 +450,22 @@ impl<
     pub fn process<const DET: usize, const P: usize>(
         &self,
         cube: &Cube<'_, N, M, K>,
-        work: &mut FftWorkspace<N, K, DET>,
+        work: &mut FftWorkspace<N, M, K, DET>,
         out: &mut PointCloud<P>,
     ) -> Result<(), FrameError> {
         out.clear();
         cube.status(TX)?;
         let first = usize::from(self.params.range_first);
         let last = usize::from(self.params.range_last).min(N - 1);
-        let bins = cube.bins();
 
         // Stage 1: Doppler FFT per range bin and row into one scratch, non-coherent sum.
         for row in work.rd.iter_mut() {
             *row = [0.0; K];
         }
         let mut buf = [ZERO; K];
-        for (snap, rd) in bins
-            .iter()
-            .zip(work.rd.iter_mut())
-            .take(last + 1)
-            .skip(first)
-        {
-            for x in snap.iter() {
+        for (b, rd) in work.rd.iter_mut().enumerate().take(last + 1).skip(first) {
+            cube.snapshots(b, &mut work.block);
+            for x in work.block.iter() {
                 for ((o, v), w) in buf.iter_mut().zip(x.iter()).zip(self.doppler_window.iter()) {
                     *o = *v * *w;
                 }
@@ -501,12 +488,22 @@ impl<
         out.stats.detections = work.detections.as_slice().len() as u32;
         out.stats.detection_overflow = work.detections.overflow;
 
-        // Stage 3: angles and a point per detection.
-        for det in work.detections.as_slice() {
+        // Stage 3: angles and a point per detection (one dequantisation per distinct bin).
+        let FftWorkspace {
+            block,
+            rd,
+            detections,
+            ..
+        } = work;
+        let mut block_bin = usize::MAX;
+        for det in detections.as_slice() {
             let before = out.stats.points + out.stats.point_overflow;
-            if let Some(snap) = bins.get(usize::from(det.range_bin)) {
-                self.resolve(det, snap, &work.rd, out);
+            let b = usize::from(det.range_bin);
+            if b != block_bin {
+                cube.snapshots(b, block);
+                block_bin = b;
             }
+            self.resolve(det, block, rd, out);
             if out.stats.points + out.stats.point_overflow == before {
                 out.stats.detections_without_point += 1;
             }

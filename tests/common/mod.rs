@@ -117,7 +117,7 @@ pub fn id(i: usize, tx: usize) -> ChirpId {
 /// Heap storage for a cube (never on the test thread's stack).
 pub fn storage<const N: usize, const M: usize, const K: usize>(
 ) -> Box<dbe_radar::cube::CubeStorage<N, M, K>> {
-    let v = vec![[[dbe_radar::Complex32::new(0.0, 0.0); K]; M]; N];
+    let v = vec![[[[0i16; 2]; K]; M]; N];
     match v.into_boxed_slice().try_into() {
         Ok(b) => b,
         Err(_) => unreachable!("length is N"),

@@ -2,8 +2,6 @@
 #![no_std]
 #![no_main]
 
-use core::mem::MaybeUninit;
-
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug;
 use panic_semihosting as _;
@@ -11,7 +9,7 @@ use panic_semihosting as _;
 use dbe_firmware::console::Console;
 use dbe_firmware::{run, say, Buffers, Preset};
 use dbe_radar::presets::iwr6843 as p;
-use dbe_radar::{AntennaGeometry, Complex32, Waveform};
+use dbe_radar::{AntennaGeometry, Waveform};
 
 /// The TI capture, de-interleaved, written to `OUT_DIR` by `build.rs`.
 static FRAME: [u8; FRAME_BYTES] = *include_bytes!(concat!(env!("OUT_DIR"), "/iwr6843.frame"));
@@ -24,9 +22,8 @@ fn main() -> ! {
     // cortex-m-rt hands each of these out once as `&'static mut`; all are zero (or
     // uninitialised) at reset, so they live in `.bss`: nothing is copied from flash and nothing
     // big touches the stack.
-    static mut DBE: MaybeUninit<p::Dbe> = MaybeUninit::uninit();
-    static mut CUBE: p::CubeStorage =
-        [[[Complex32::new(0.0, 0.0); p::LOOPS]; p::VIRTUAL]; p::SAMPLES];
+    static mut DBE: p::Dbe = p::Dbe::unconfigured();
+    static mut CUBE: p::CubeStorage = dbe_radar::cube::zero_storage();
     static mut DMA_CHIRP: p::Chirp = [[[0; 2]; p::SAMPLES]; p::RX];
     static mut WORKSPACE: p::Workspace = p::Workspace::new();
     static mut CLOUD: p::PointCloud = p::PointCloud::new();
