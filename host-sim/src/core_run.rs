@@ -9,6 +9,7 @@ use std::fmt;
 
 use dbe_radar::cfar::Detection;
 use dbe_radar::cube::CubeStorage;
+use dbe_radar::fft_pipeline::{FftChain, FftParams, FftWorkspace};
 use dbe_radar::{ChirpId, Complex32, ConfigError, Cube, Dbe, FrameError, FrameStats, Params};
 use dbe_radar::{PointCloud, Workspace};
 
@@ -160,6 +161,16 @@ pub enum CoreRunError {
     Frame(FrameError),
 }
 
+/// Which of the core's chains turns frames into points.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Chain {
+    /// The DBE chain (Capon azimuth, OS-CFAR on the range–azimuth map, Capon elevation).
+    #[default]
+    Dbe,
+    /// The FFT baseline chain (spec §4), with `FftParams::from_dbe` of the parameters.
+    Fft,
+}
+
 /// What the core produced for one frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CoreOutput {
@@ -167,9 +178,10 @@ pub struct CoreOutput {
     pub points: Vec<PointRecord>,
     /// The frame statistics.
     pub stats: FrameStats,
-    /// Range–azimuth map, `ra_map[range bin][azimuth bin]`, linear.
+    /// Range–azimuth map, `ra_map[range bin][azimuth bin]`, linear (empty for the FFT chain).
     pub ra_map: Vec<Vec<f32>>,
-    /// CFAR detections.
+    /// CFAR detections on the range–azimuth map (empty for the FFT chain, whose detections
+    /// live on the range–Doppler map).
     pub detections: Vec<Detection>,
 }
 
@@ -187,6 +199,11 @@ struct Engine<
     const P: usize,
 > {
     dbe: Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>,
+    /// The FFT chain and its workspace, when selected.
+    fft: Option<(
+        Box<FftChain<N, K, TX, RX, M, AZ, NAZ, NEL>>,
+        Box<FftWorkspace<N, M, K, DET>>,
+    )>,
     storage: Box<CubeStorage<N, M, K>>,
     work: Box<Workspace<N, M, K, NAZ, DET>>,
     cloud: Box<PointCloud<P>>,
@@ -210,6 +227,7 @@ impl<
         preset: Preset,
         sensor: &SensorConfig,
         params: Params,
+        chain: Chain,
     ) -> Result<Box<Self>, CoreRunError> {
         let geometry_error = CoreRunError::Geometry {
             preset,
@@ -227,6 +245,8 @@ impl<
         };
         let config = |source| CoreRunError::Config { preset, source };
         let mut dbe = Dbe::new(sensor.waveform, geometry, params).map_err(config)?;
+        // The coupling table in the core's data order `[tx][rx]`, one slice per channel.
+        let mut table: Vec<&[Complex32]> = Vec::new();
         if let Some(c) = &sensor.coupling {
             let expected = TX * RX * c.range_bins;
             if c.data.len() != expected {
@@ -235,12 +255,29 @@ impl<
                     found: c.data.len(),
                 });
             }
-            let table: Vec<&[Complex32]> = c.data.chunks(c.range_bins.max(1)).collect();
-            let per_tx: [[&[Complex32]; RX]; TX] = core::array::from_fn(|t| {
-                core::array::from_fn(|r| table.get(t * RX + r).copied().unwrap_or(&[]))
-            });
-            dbe = dbe.with_coupling(&per_tx).map_err(config)?;
+            table = c.data.chunks(c.range_bins.max(1)).collect();
         }
+        let per_tx: [[&[Complex32]; RX]; TX] = core::array::from_fn(|t| {
+            core::array::from_fn(|r| table.get(t * RX + r).copied().unwrap_or(&[]))
+        });
+        if sensor.coupling.is_some() {
+            dbe.set_coupling(&per_tx).map_err(config)?;
+        }
+        let fft = match chain {
+            Chain::Dbe => None,
+            Chain::Fft => {
+                let mut fft = FftChain::new(
+                    sensor.waveform,
+                    *dbe.geometry(),
+                    FftParams::from_dbe(&params),
+                )
+                .map_err(config)?;
+                if sensor.coupling.is_some() {
+                    fft = fft.with_coupling(&per_tx).map_err(config)?;
+                }
+                Some((Box::new(fft), Box::new(FftWorkspace::new())))
+            }
+        };
         let storage: Box<CubeStorage<N, M, K>> =
             match vec![[[[0; 2]; K]; M]; N].into_boxed_slice().try_into() {
                 Ok(storage) => storage,
@@ -248,6 +285,7 @@ impl<
             };
         Ok(Box::new(Self {
             dbe,
+            fft,
             storage,
             work: Box::new(Workspace::new()),
             cloud: Box::new(PointCloud::new()),
@@ -267,10 +305,21 @@ impl<
                     loop_index: k as u16,
                     tx_slot: t as u8,
                 };
+                // Both chains ingest identically (`range::ingest`).
                 self.dbe
                     .push_chirp(&mut cube, id, &self.chirp)
                     .map_err(CoreRunError::Frame)?;
             }
+        }
+        if let Some((fft, work)) = &mut self.fft {
+            fft.process(&cube, work, &mut self.cloud)
+                .map_err(CoreRunError::Frame)?;
+            return Ok(CoreOutput {
+                points: self.cloud.points().iter().map(PointRecord::from).collect(),
+                stats: self.cloud.stats,
+                ra_map: Vec::new(),
+                detections: Vec::new(),
+            });
         }
         self.dbe
             .process(&cube, &mut self.work, &mut self.cloud)
@@ -332,10 +381,19 @@ impl CoreRunner {
     /// Configure the core for `sensor` (its preset, waveform, geometry and coupling, when
     /// present) with `params`.
     pub fn new(sensor: &SensorConfig, params: Params) -> Result<Self, CoreRunError> {
+        Self::with_chain(sensor, params, Chain::Dbe)
+    }
+
+    /// [`Self::new`] for either chain; the FFT chain uses `FftParams::from_dbe(&params)`.
+    pub fn with_chain(
+        sensor: &SensorConfig,
+        params: Params,
+        chain: Chain,
+    ) -> Result<Self, CoreRunError> {
         let preset = Preset::for_sensor(sensor)?;
         let engine = match preset {
-            Preset::ColoRadar => Engines::ColoRadar(Engine::new(preset, sensor, params)?),
-            Preset::Iwr6843 => Engines::Iwr6843(Engine::new(preset, sensor, params)?),
+            Preset::ColoRadar => Engines::ColoRadar(Engine::new(preset, sensor, params, chain)?),
+            Preset::Iwr6843 => Engines::Iwr6843(Engine::new(preset, sensor, params, chain)?),
         };
         Ok(Self { preset, engine })
     }
@@ -411,6 +469,39 @@ mod tests {
         let processed = u32::from(p.range_last - p.range_first) + 1;
         assert_eq!(out.stats.skipped_range_bins, processed);
         assert!(out.points.is_empty());
+        Ok(())
+    }
+
+    #[test]
+    fn both_chains_find_the_same_target() -> Result<(), CoreRunError> {
+        // One static scatterer at range bin 40 on boresight, rendered by hand (spec §2).
+        let sensor = SensorConfig::coloradar();
+        let mut frame = AdcFrame::zeros(128, 128, 3, 4);
+        for k in 0..128 {
+            for t in 0..3 {
+                for r in 0..4 {
+                    for n in 0..128 {
+                        let ph = 2.0 * std::f64::consts::PI * 40.0 * n as f64 / 128.0;
+                        let i = frame.index(k, t, r, n);
+                        frame.data[i] = [
+                            (300.0 * ph.cos()) as i16 + (n % 3) as i16,
+                            (300.0 * ph.sin()) as i16,
+                        ];
+                    }
+                }
+            }
+        }
+        let params = Params::defaults(128);
+        for chain in [Chain::Dbe, Chain::Fft] {
+            let out = CoreRunner::with_chain(&sensor, params, chain)?.process(&frame)?;
+            let hit = out.points.iter().find(|p| p.range_bin == 40);
+            assert!(
+                hit.is_some_and(|p| p.y.abs() < 0.2 && p.doppler_bin == 0),
+                "{chain:?}: {:?}",
+                out.points
+            );
+            assert_eq!(out.ra_map.is_empty(), chain == Chain::Fft);
+        }
         Ok(())
     }
 

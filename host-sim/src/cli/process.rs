@@ -3,10 +3,10 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use host_sim::cloud::PointRecord;
-use host_sim::core_run::CoreRunner;
+use host_sim::core_run::{Chain, CoreRunner};
 use host_sim::io::pointcloud::{write_coloradar_bin, write_csv, write_pcd, write_ply, PlyEncoding};
 use host_sim::io::{write_file_atomic, StagedDir};
 use host_sim::sensor::SensorConfig;
@@ -81,18 +81,17 @@ pub fn run_frames(
     range: std::ops::Range<usize>,
     label: &str,
 ) -> Result<Vec<FrameResult>> {
-    if pipeline == Pipeline::Fft {
-        bail!(
-            "--pipeline fft: the FFT chain is not available in this build yet; use --pipeline dbe"
-        );
-    }
-    CoreRunner::new(sensor, *params).context("configuring the core")?;
+    let chain = match pipeline {
+        Pipeline::Dbe => Chain::Dbe,
+        Pipeline::Fft => Chain::Fft,
+    };
+    CoreRunner::with_chain(sensor, *params, chain).context("configuring the core")?;
     let bar = progress(range.len() as u64, label);
     let results: Vec<Result<FrameResult>> = range
         .into_par_iter()
         .progress_with(bar.clone())
         .map_init(
-            || CoreRunner::new(sensor, *params),
+            || CoreRunner::with_chain(sensor, *params, chain),
             |runner, i| {
                 let runner = runner.as_mut().map_err(|e| anyhow::anyhow!("{e}"))?;
                 let frame = input.frame(i)?;
