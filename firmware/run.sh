@@ -15,6 +15,9 @@ case "$board" in
 esac
 frame="$repo/firmware/target/frames/coloradar.frame"
 (cd "$repo" && cargo run --quiet -p host-sim --example fw_frame -- "$frame")
+# The same flags as host_sim::firmware::build (source paths remapped: a path-independent image).
+sep=$'\x1f'
+export CARGO_ENCODED_RUSTFLAGS="-C${sep}link-arg=-Tlink.x${sep}--remap-path-prefix=$repo=/dbe-radar${sep}--remap-path-prefix=${CARGO_HOME:-$HOME/.cargo}=/cargo"
 (cd "$repo/firmware" && DBE_FW_COLORADAR_FRAME="$frame" cargo build --release --quiet)
 # -icount shift=0,sleep=off: 1 guest instruction = 1 ns of virtual time, reproducibly (README.md).
 exec qemu-system-arm -machine "$machine" -cpu "$cpu" -icount shift=0,sleep=off \
