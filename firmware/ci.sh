@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # CI for the firmware (called by .ci/run): format and lints of the firmware crate, then the
-# budget check (builds the firmware, runs both presets under QEMU, compares with
+# budget check (builds the firmware, runs all four images under QEMU, compares with
 # docs/budget.json and memory-layout.md). The firmware-vs-host comparison is
 # host-sim/tests/firmware.rs, run by `cargo test --workspace`.
 set -euo pipefail

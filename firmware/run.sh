@@ -1,13 +1,17 @@
 #!/usr/bin/env bash
-# Build the firmware and run one preset under QEMU, printing its output lines.
-#   firmware/run.sh [coloradar|iwr6843] [an386|an500]
+# Build the firmware and run one image under QEMU, printing its output lines.
+#   firmware/run.sh [coloradar|iwr6843|coloradar-fft|iwr6843-fft] [an386|an500]
+# coloradar, iwr6843: the DBE chain; the -fft images: the FFT baseline chain on the same frame.
 # an386 = Cortex-M4F (the budget's board), an500 = Cortex-M7. Needs qemu-system-arm and
 # `rustup target add thumbv7em-none-eabihf`; ../shared beside the repository for the TI capture.
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 preset="${1:-coloradar}"
 board="${2:-an386}"
-case "$preset" in coloradar|iwr6843) ;; *) echo "unknown preset '$preset' (coloradar, iwr6843)" >&2; exit 2;; esac
+case "$preset" in
+    coloradar|iwr6843|coloradar-fft|iwr6843-fft) ;;
+    *) echo "unknown image '$preset' (coloradar, iwr6843, coloradar-fft, iwr6843-fft)" >&2; exit 2 ;;
+esac
 case "$board" in
     an386) machine=mps2-an386; cpu=cortex-m4 ;;
     an500) machine=mps2-an500; cpu=cortex-m7 ;;

@@ -1,10 +1,11 @@
 //! dbe-radar on a Cortex-M4F: the whole DBE chain on one embedded frame, with its resource
-//! budget measured on the running image.
+//! budget measured on the running image. The FFT baseline chain runs on the same frames in
+//! its own binaries (`coloradar-fft`, `iwr6843-fft`; [`fft_chain`]).
 //!
-//! Each binary (`coloradar`, `iwr6843`) declares its buffers as `static`s of its `#[entry]`
-//! function (cortex-m-rt turns them into `&'static mut`, zero or uninitialised, so in `.bss`:
-//! no heap, no global allocator, no megabyte on the stack, nothing copied from flash) and
-//! calls [`run`], which
+//! Each DBE binary (`coloradar`, `iwr6843`) declares its buffers as `static`s of its
+//! `#[entry]` function (cortex-m-rt turns them into `&'static mut`, zero or uninitialised, so
+//! in `.bss`: no heap, no global allocator, no megabyte on the stack, nothing copied from
+//! flash) and calls [`run`], which
 //!
 //! 1. calibrates the instruction clock ([`clock`]),
 //! 2. feeds the frame chirp by chirp in TDM order through a one-chirp "DMA" buffer and
@@ -29,6 +30,8 @@
 //! ```
 //!
 //! Floats are printed with `Display`, the shortest text that parses back to the same `f32`.
+//! The FFT binaries print `H … chain fft …`, `R` detections and `Q` points instead
+//! ([`fft_chain`]).
 //!
 //! # Stages
 //!
@@ -59,7 +62,10 @@
 
 pub mod clock;
 pub mod console;
+pub mod fft_chain;
 pub mod stack;
+
+pub use fft_chain::{run_fft, FftBuffers};
 
 use core::fmt;
 
@@ -124,7 +130,7 @@ pub enum Failure {
         /// Bytes embedded.
         found: usize,
     },
-    /// `Dbe::new` rejected the configuration.
+    /// The chain (`Dbe::configure`, `FftChain::new`) rejected the configuration.
     Config(ConfigError),
     /// Ingestion or processing rejected the frame.
     Frame(FrameError),

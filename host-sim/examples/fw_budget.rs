@@ -8,7 +8,9 @@
 //! cargo run -p host-sim --example fw_budget -- render --check
 //! ```
 //!
-//! Needs `qemu-system-arm` and the `thumbv7em-none-eabihf` target (`firmware/README.md`).
+//! Measures every firmware image (`host_sim::firmware::Image::ALL`: the DBE chain and the FFT
+//! chain per preset). Needs `qemu-system-arm` and the `thumbv7em-none-eabihf` target
+//! (`firmware/README.md`).
 
 use std::process::ExitCode;
 
@@ -52,7 +54,7 @@ fn run(args: &Args) -> Result<bool, FirmwareError> {
             let (budget, _, _) = firmware::measure(&layout)?;
             for p in &budget.presets {
                 println!(
-                    "{:>9}: static RAM {} B, stack peak {} B, flash {} B, {} instructions/frame",
+                    "{:>13}: static RAM {} B, stack peak {} B, flash {} B, {} instructions/frame",
                     p.preset,
                     firmware::thousands(p.static_ram_bytes),
                     firmware::thousands(p.stack_peak_bytes),

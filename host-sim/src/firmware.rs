@@ -3,13 +3,23 @@
 //! `memory-layout.md` in step with the measurement.
 //!
 //! ```text
-//! frames ──▶ cargo build --release (firmware/, thumbv7em-none-eabihf) ──▶ ELF per preset
+//! frames ──▶ cargo build --release (firmware/, thumbv7em-none-eabihf) ──▶ ELF per Image
 //!   coloradar: simulated here, written to firmware/target/frames/, embedded by build.rs
 //!   iwr6843:   the TI capture in ../shared, de-interleaved by build.rs
 //! ELF ──▶ qemu-system-arm -machine mps2-an386 -icount shift=0,sleep=off ──▶ lines ──▶ FirmwareRun
 //! ELF ──▶ section and symbol sizes ──▶ ElfMemory
 //! FirmwareRun + ElfMemory ──▶ PresetBudget ──▶ docs/budget.json, memory-layout.md block
 //! ```
+//!
+//! # Images
+//!
+//! One image ([`Image`]) per preset and chain: `coloradar` and `iwr6843` run the DBE chain,
+//! `coloradar-fft` and `iwr6843-fft` the FFT baseline chain on the same embedded frame. Each
+//! is measured on its own and is one entry of the budget (`preset` is the image's name,
+//! `chain` the chain), so the FFT chain never changes a DBE figure. Both chains ingest with
+//! the same core code (`range::ingest`) into the same `Cube` type; what the FFT chain adds to
+//! a DBE image running both on one cube is its `FFT_CHAIN` and `FFT_WORKSPACE` statics and
+//! its `process` stage.
 //!
 //! # Instruction counts
 //!
@@ -33,7 +43,7 @@ use dbe_radar::FrameStats;
 use rand::SeedableRng;
 
 use crate::cloud::PointRecord;
-use crate::core_run::Preset;
+use crate::core_run::{Chain, Preset};
 use crate::frame::AdcFrame;
 use crate::sensor::SensorConfig;
 use crate::sim::Scatterer;
@@ -189,6 +199,65 @@ impl Board {
     }
 }
 
+/// One firmware image: a preset's sizes and the chain it runs (a binary of `firmware/`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Image {
+    /// The core preset (array sizes, waveform, geometry, embedded frame).
+    pub preset: Preset,
+    /// The chain the image runs.
+    pub chain: Chain,
+}
+
+impl Image {
+    /// Every image, in budget order: the DBE images, then the FFT ones.
+    pub const ALL: [Image; 4] = [
+        Image::dbe(Preset::ColoRadar),
+        Image::dbe(Preset::Iwr6843),
+        Image::fft(Preset::ColoRadar),
+        Image::fft(Preset::Iwr6843),
+    ];
+
+    /// The DBE image of `preset`.
+    pub const fn dbe(preset: Preset) -> Self {
+        Self {
+            preset,
+            chain: Chain::Dbe,
+        }
+    }
+
+    /// The FFT-chain image of `preset`.
+    pub const fn fft(preset: Preset) -> Self {
+        Self {
+            preset,
+            chain: Chain::Fft,
+        }
+    }
+
+    /// The binary's name, also the budget entry's `preset`: `coloradar`, `coloradar-fft`, ….
+    pub const fn name(self) -> &'static str {
+        match (self.preset, self.chain) {
+            (Preset::ColoRadar, Chain::Dbe) => "coloradar",
+            (Preset::Iwr6843, Chain::Dbe) => "iwr6843",
+            (Preset::ColoRadar, Chain::Fft) => "coloradar-fft",
+            (Preset::Iwr6843, Chain::Fft) => "iwr6843-fft",
+        }
+    }
+}
+
+impl std::fmt::Display for Image {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The chain's name in the firmware's output and the budget: `dbe`, `fft`.
+pub const fn chain_name(chain: Chain) -> &'static str {
+    match chain {
+        Chain::Dbe => "dbe",
+        Chain::Fft => "fft",
+    }
+}
+
 /// Where things are: the repository, its `firmware/` crate and the shared fixtures.
 #[derive(Clone, Debug)]
 pub struct Layout {
@@ -234,13 +303,13 @@ impl Layout {
             .join("coloradar.frame")
     }
 
-    /// The firmware ELF of `preset`.
-    pub fn elf(&self, preset: Preset) -> PathBuf {
+    /// The firmware ELF of `image`.
+    pub fn elf(&self, image: Image) -> PathBuf {
         self.firmware()
             .join("target")
             .join(TARGET)
             .join("release")
-            .join(preset.name())
+            .join(image.name())
     }
 
     /// `docs/budget.json`.
@@ -465,7 +534,7 @@ fn tail_of(text: &str) -> String {
     lines[lines.len().saturating_sub(10)..].join("\n")
 }
 
-/// Write the ColoRadar frame where `build.rs` reads it and build both firmware binaries
+/// Write the ColoRadar frame where `build.rs` reads it and build every firmware binary
 /// (`cargo build --release` in `firmware/`). Returns the frame that was embedded.
 pub fn build(layout: &Layout) -> Result<AdcFrame, FirmwareError> {
     check_tools()?;
@@ -514,9 +583,9 @@ pub fn firmware_rustflags(repo: &Path) -> String {
     flags.join("\x1f")
 }
 
-/// Run the firmware of `preset` on `board`; its standard output.
-pub fn run(layout: &Layout, preset: Preset, board: Board) -> Result<String, FirmwareError> {
-    let elf = layout.elf(preset);
+/// Run the firmware image `image` on `board`; its standard output.
+pub fn run(layout: &Layout, image: Image, board: Board) -> Result<String, FirmwareError> {
+    let elf = layout.elf(image);
     if !elf.is_file() {
         return Err(FirmwareError::BadInput {
             path: elf,
@@ -544,23 +613,42 @@ pub struct FwDetection {
     pub level: f32,
 }
 
+/// One range–Doppler CFAR detection of the FFT chain as the firmware printed it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FwRdDetection {
+    /// Range bin.
+    pub range_bin: u16,
+    /// Signed Doppler bin.
+    pub doppler_bin: i16,
+    /// Range–Doppler power, linear.
+    pub power: f32,
+    /// CFAR noise level, linear.
+    pub level: f32,
+}
+
 /// Everything one firmware run printed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FirmwareRun {
-    /// Preset name.
+    /// Preset name (the core preset: `coloradar`, `iwr6843`).
     pub preset: String,
+    /// The chain that ran: the header's `chain` field (`fft`), DBE when absent.
+    pub chain: Chain,
     /// `(samples, loops, tx, rx)`.
     pub sizes: (usize, usize, usize, usize),
     /// Instructions per tick of the instruction clock, from the calibration.
     pub instructions_per_tick: u64,
-    /// CFAR detections.
+    /// CFAR detections on the range–azimuth map (`D` lines, DBE chain).
     pub detections: Vec<FwDetection>,
-    /// Points, `f32` values widened exactly to `f64`.
+    /// CFAR detections on the range–Doppler map (`R` lines, FFT chain).
+    pub rd_detections: Vec<FwRdDetection>,
+    /// Points (`P` lines of the DBE chain, `Q` lines of the FFT chain), `f32` values widened
+    /// exactly to `f64`.
     pub points: Vec<PointRecord>,
     /// Frame statistics.
     pub stats: FrameStats,
-    /// Instructions per stage (`range_fft_per_chirp`, `ingest`, `azimuth_capon`, `cfar`,
-    /// `elevation_doppler`, `process`, `total`, `setup`, …).
+    /// Instructions per stage (DBE: `range_fft_per_chirp`, `ingest`, `azimuth_capon`, `cfar`,
+    /// `elevation_doppler`, `process`, `total`, `setup`, …; FFT: `doppler_fft`, `rd_cfar` and
+    /// `angles` instead of the three DBE stages).
     pub stages: BTreeMap<String, u64>,
     /// Stack peak up to and including the chain's setup, bytes.
     pub stack_setup: u64,
@@ -583,14 +671,41 @@ fn field<T: std::str::FromStr>(
         })
 }
 
-/// Parse the firmware's output (format: `firmware/src/lib.rs`). Fails unless the run printed
-/// its header, calibration, statistics and stages and ended with `E ok`.
+/// A point line (`P` or `Q`): ten fields after the tag.
+fn parse_point(t: &[&str], line: usize) -> Result<PointRecord, FirmwareError> {
+    if t.len() != 11 {
+        return Err(FirmwareError::Output {
+            line,
+            message: format!("a point line has 11 fields, this one {}", t.len()),
+        });
+    }
+    let f = |i: usize, what: &str| field::<f32>(t, i, line, what).map(f64::from);
+    Ok(PointRecord {
+        range_bin: field(t, 1, line, "range bin")?,
+        azimuth_bin: field(t, 2, line, "azimuth bin")?,
+        elevation_bin: field(t, 3, line, "elevation bin")?,
+        doppler_bin: field(t, 4, line, "Doppler bin")?,
+        x: f(5, "x")?,
+        y: f(6, "y")?,
+        z: f(7, "z")?,
+        doppler: f(8, "velocity")?,
+        intensity_db: f(9, "power dB")?,
+        snr_db: f(10, "SNR dB")?,
+    })
+}
+
+/// Parse the firmware's output (format: `firmware/src/lib.rs`, and `firmware/src/fft_chain.rs`
+/// for the FFT images). Fails unless the run printed its header, calibration, statistics and
+/// stages and ended with `E ok`, or when it mixes the two chains' lines (`D`/`P` of the DBE
+/// chain, `R`/`Q` of the FFT chain, chosen by the header's `chain` field).
 pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
     let mut run = FirmwareRun {
         preset: String::new(),
+        chain: Chain::Dbe,
         sizes: (0, 0, 0, 0),
         instructions_per_tick: 0,
         detections: Vec::new(),
+        rd_detections: Vec::new(),
         points: Vec::new(),
         stats: FrameStats::default(),
         stages: BTreeMap::new(),
@@ -602,7 +717,16 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
         let line = idx + 1;
         let t: Vec<&str> = raw.split_whitespace().collect();
         let f = |i: usize, what: &str| field::<f32>(&t, i, line, what);
-        match t.first().copied() {
+        let tag = t.first().copied();
+        let wrong_chain = |chain: Chain| FirmwareError::Output {
+            line,
+            message: format!(
+                "a `{}` line in the output of the {} chain",
+                tag.unwrap_or_default(),
+                chain_name(chain)
+            ),
+        };
+        match tag {
             None => {}
             Some("H") => {
                 let named = |key: &str| -> Result<usize, FirmwareError> {
@@ -616,6 +740,19 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
                     field(&t, pos + 1, line, key)
                 };
                 run.preset = field(&t, 2, line, "preset name")?;
+                run.chain = match t.iter().position(|x| *x == "chain") {
+                    None => Chain::Dbe,
+                    Some(pos) => match t.get(pos + 1).copied() {
+                        Some("dbe") => Chain::Dbe,
+                        Some("fft") => Chain::Fft,
+                        other => {
+                            return Err(FirmwareError::Output {
+                                line,
+                                message: format!("unknown chain {other:?} (dbe, fft)"),
+                            })
+                        }
+                    },
+                };
                 run.sizes = (
                     named("samples")?,
                     named("loops")?,
@@ -640,32 +777,21 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
                     });
                 }
             }
+            Some("D" | "P") if run.chain != Chain::Dbe => return Err(wrong_chain(run.chain)),
+            Some("R" | "Q") if run.chain != Chain::Fft => return Err(wrong_chain(run.chain)),
             Some("D") => run.detections.push(FwDetection {
                 range_bin: field(&t, 1, line, "range bin")?,
                 azimuth_bin: field(&t, 2, line, "azimuth bin")?,
                 power: f(3, "power")?,
                 level: f(4, "level")?,
             }),
-            Some("P") => {
-                if t.len() != 11 {
-                    return Err(FirmwareError::Output {
-                        line,
-                        message: format!("a point line has 11 fields, this one {}", t.len()),
-                    });
-                }
-                run.points.push(PointRecord {
-                    range_bin: field(&t, 1, line, "range bin")?,
-                    azimuth_bin: field(&t, 2, line, "azimuth bin")?,
-                    elevation_bin: field(&t, 3, line, "elevation bin")?,
-                    doppler_bin: field(&t, 4, line, "Doppler bin")?,
-                    x: f64::from(f(5, "x")?),
-                    y: f64::from(f(6, "y")?),
-                    z: f64::from(f(7, "z")?),
-                    doppler: f64::from(f(8, "velocity")?),
-                    intensity_db: f64::from(f(9, "power dB")?),
-                    snr_db: f64::from(f(10, "SNR dB")?),
-                });
-            }
+            Some("R") => run.rd_detections.push(FwRdDetection {
+                range_bin: field(&t, 1, line, "range bin")?,
+                doppler_bin: field(&t, 2, line, "Doppler bin")?,
+                power: f(3, "power")?,
+                level: f(4, "level")?,
+            }),
+            Some("P" | "Q") => run.points.push(parse_point(&t, line)?),
             Some("F") => {
                 run.stats = FrameStats {
                     detections: field(&t, 1, line, "detections")?,
@@ -725,15 +851,18 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
             message: format!("no {what}; the run was cut short"),
         });
     }
-    if run.points.len() != run.stats.points as usize
-        || run.detections.len() != run.stats.detections as usize
+    let detections = match run.chain {
+        Chain::Dbe => run.detections.len(),
+        Chain::Fft => run.rd_detections.len(),
+    };
+    if run.points.len() != run.stats.points as usize || detections != run.stats.detections as usize
     {
         return Err(FirmwareError::Output {
             line: 0,
             message: format!(
                 "{} points and {} detections printed, statistics say {} and {}",
                 run.points.len(),
-                run.detections.len(),
+                detections,
                 run.stats.points,
                 run.stats.detections
             ),
@@ -788,8 +917,8 @@ impl ElfMemory {
     }
 }
 
-/// The firmware's statics worth naming, and what they hold.
-const NAMED_STATICS: [(&str, &str); 5] = [
+/// The DBE images' statics worth naming, and what they hold.
+const DBE_STATICS: [(&str, &str); 5] = [
     ("CUBE", "radar cube (`CubeStorage`)"),
     (
         "WORKSPACE",
@@ -799,6 +928,29 @@ const NAMED_STATICS: [(&str, &str); 5] = [
     ("CLOUD", "`PointCloud`"),
     ("DMA_CHIRP", "one-chirp DMA buffer"),
 ];
+
+/// The FFT images' statics worth naming, and what they hold.
+const FFT_STATICS: [(&str, &str); 5] = [
+    ("CUBE", "radar cube (`CubeStorage`)"),
+    (
+        "FFT_WORKSPACE",
+        "`FftWorkspace` (range bin in flight, RD map, CFAR)",
+    ),
+    (
+        "FFT_CHAIN",
+        "`FftChain` (windows, twiddles, beamscan table, parameters)",
+    ),
+    ("CLOUD", "`PointCloud`"),
+    ("DMA_CHIRP", "one-chirp DMA buffer"),
+];
+
+/// The statics an image of `chain` names, and what they hold.
+pub const fn named_statics(chain: Chain) -> &'static [(&'static str, &'static str)] {
+    match chain {
+        Chain::Dbe => &DBE_STATICS,
+        Chain::Fft => &FFT_STATICS,
+    }
+}
 
 /// The name a legacy-mangled Rust symbol ends with (`_ZN…4CUBE17h…E` → `CUBE`).
 fn static_name(mangled: &str) -> Option<&str> {
@@ -822,8 +974,9 @@ fn static_name(mangled: &str) -> Option<&str> {
     }
 }
 
-/// Sections and named buffers of the firmware ELF at `path`.
-pub fn elf_memory(path: &Path) -> Result<ElfMemory, FirmwareError> {
+/// Sections and named buffers ([`named_statics`] of `chain`) of the firmware ELF at `path`.
+pub fn elf_memory(path: &Path, chain: Chain) -> Result<ElfMemory, FirmwareError> {
+    let named_statics = named_statics(chain);
     use object::{Object, ObjectSection, ObjectSymbol};
     let data = std::fs::read(path).map_err(io_err(path, "read the firmware ELF"))?;
     let bad = |message: String| FirmwareError::Elf {
@@ -869,7 +1022,7 @@ pub fn elf_memory(path: &Path) -> Result<ElfMemory, FirmwareError> {
         if section != ".data" && section != ".bss" {
             continue;
         }
-        if let Some((symbol, what)) = NAMED_STATICS.iter().find(|(s, _)| *s == name) {
+        if let Some((symbol, what)) = named_statics.iter().find(|(s, _)| *s == name) {
             named.insert(
                 symbol,
                 Buffer {
@@ -886,15 +1039,15 @@ pub fn elf_memory(path: &Path) -> Result<ElfMemory, FirmwareError> {
             "no FRAME symbol in .rodata (the embedded test frame)".into()
         ));
     }
-    let mut buffers: Vec<Buffer> = NAMED_STATICS
+    let mut buffers: Vec<Buffer> = named_statics
         .iter()
         .filter_map(|(s, _)| named.remove(s))
         .collect();
-    if buffers.len() != NAMED_STATICS.len() {
+    if buffers.len() != named_statics.len() {
         let found: Vec<&str> = buffers.iter().map(|b| b.symbol.as_str()).collect();
+        let expected: Vec<&str> = named_statics.iter().map(|(s, _)| *s).collect();
         return Err(bad(format!(
-            "expected the statics {:?}, found {found:?}",
-            NAMED_STATICS.map(|(s, _)| s)
+            "expected the statics {expected:?}, found {found:?}"
         )));
     }
     let memory = ElfMemory {
@@ -939,15 +1092,18 @@ pub struct Budget {
     pub profile: String,
     /// Instructions per tick of the instruction clock (calibrated).
     pub instructions_per_tick: u64,
-    /// One entry per preset.
+    /// One entry per image ([`Image::ALL`] order): the DBE images, then the FFT ones.
     pub presets: Vec<PresetBudget>,
 }
 
-/// The measured budget of one preset.
+/// The measured budget of one image (a preset and a chain).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PresetBudget {
-    /// Preset name (`coloradar`, `iwr6843`).
+    /// The image's name ([`Image::name`]: `coloradar`, `iwr6843`, `coloradar-fft`,
+    /// `iwr6843-fft`).
     pub preset: String,
+    /// The chain it runs ([`chain_name`]: `dbe`, `fft`).
+    pub chain: String,
     /// The frame processed.
     pub frame: String,
     /// Detections and points of that frame (context for the per-detection stages).
@@ -960,7 +1116,8 @@ pub struct PresetBudget {
     pub buffers: Vec<Buffer>,
     /// Stack peak over the whole run, bytes.
     pub stack_peak_bytes: u64,
-    /// Stack peak up to and including `Dbe::configure`, bytes.
+    /// Stack peak up to and including the chain's setup (`Dbe::configure`, `FftChain::new`),
+    /// bytes.
     pub stack_peak_setup_bytes: u64,
     /// Stack peak of one frame (ingest + process) after setup, bytes.
     pub stack_peak_frame_bytes: u64,
@@ -978,11 +1135,12 @@ pub struct PresetBudget {
 }
 
 impl PresetBudget {
-    /// Combine one run's output and its ELF.
-    pub fn new(run: &FirmwareRun, elf: &ElfMemory, frame: &str) -> Self {
+    /// Combine the output and the ELF of `image`.
+    pub fn new(image: Image, run: &FirmwareRun, elf: &ElfMemory, frame: &str) -> Self {
         let stack_peak = run.stack_setup.max(run.stack_frame);
         Self {
-            preset: run.preset.clone(),
+            preset: image.name().into(),
+            chain: chain_name(image.chain).into(),
             frame: frame.into(),
             detections: run.stats.detections,
             points: run.stats.points,
@@ -1014,43 +1172,40 @@ fn frame_description(preset: Preset) -> String {
     }
 }
 
-/// One measured preset: the run's output and the budget entry.
+/// One measured image: the run's output and the budget entry.
 #[derive(Clone, Debug)]
 pub struct Measurement {
-    /// The preset.
-    pub preset: Preset,
+    /// The image.
+    pub image: Image,
     /// What the firmware printed.
     pub run: FirmwareRun,
     /// Its budget entry.
     pub budget: PresetBudget,
 }
 
-/// Build the firmware, run every preset on the AN386 and measure the budget. Also returns the
+/// Build the firmware, run every image on the AN386 and measure the budget. Also returns the
 /// simulated ColoRadar frame that was embedded.
 pub fn measure(layout: &Layout) -> Result<(Budget, Vec<Measurement>, AdcFrame), FirmwareError> {
     let frame = build(layout)?;
     let mut measurements = Vec::new();
-    for preset in Preset::ALL {
-        let text = run(layout, preset, Board::An386)?;
+    for image in Image::ALL {
+        let text = run(layout, image, Board::An386)?;
         let run = parse_output(&text)?;
-        if run.preset != preset.name() || run.sizes != preset.sizes() {
+        let preset = image.preset;
+        if run.preset != preset.name() || run.sizes != preset.sizes() || run.chain != image.chain {
             return Err(FirmwareError::Output {
                 line: 1,
                 message: format!(
-                    "the {} binary reports preset {} with sizes {:?}",
-                    preset.name(),
+                    "the {image} binary reports preset {} with sizes {:?}, chain {}",
                     run.preset,
-                    run.sizes
+                    run.sizes,
+                    chain_name(run.chain)
                 ),
             });
         }
-        let elf = elf_memory(&layout.elf(preset))?;
-        let budget = PresetBudget::new(&run, &elf, &frame_description(preset));
-        measurements.push(Measurement {
-            preset,
-            run,
-            budget,
-        });
+        let elf = elf_memory(&layout.elf(image), image.chain)?;
+        let budget = PresetBudget::new(image, &run, &elf, &frame_description(preset));
+        measurements.push(Measurement { image, run, budget });
     }
     let per_tick = measurements
         .first()
@@ -1096,95 +1251,17 @@ fn human(bytes: u64) -> String {
     }
 }
 
-/// The Markdown tables of the budget block (without the marker lines).
-pub fn render_markdown(budget: &Budget) -> String {
-    let mut s = String::new();
-    let names: Vec<&str> = budget.presets.iter().map(|p| p.preset.as_str()).collect();
-    let header = |s: &mut String, first: &str| {
-        let _ = writeln!(s, "| {first} | {} |", names.join(" | "));
-        let _ = writeln!(s, "|---|{}", "---:|".repeat(names.len()));
-    };
-    let row = |s: &mut String, label: &str, f: &dyn Fn(&PresetBudget) -> String| {
-        let cells: Vec<String> = budget.presets.iter().map(f).collect();
-        let _ = writeln!(s, "| {label} | {} |", cells.join(" | "));
-    };
-    let _ = writeln!(
-        s,
-        "Generated by `{}` from `docs/budget.json`; do not edit by hand.\n",
-        budget.command
-    );
-    let _ = writeln!(
-        s,
-        "Measured on {} under {}, firmware built by {} ({}). Instruction counts are guest \
-         instructions (QEMU `-icount shift=0,sleep=off`: 1 instruction = 1 ns of virtual time; \
-         the MPS2 FPGA counter ticks every {} instructions, calibrated against a delay loop of \
-         known length), not cycles.\n",
-        budget.board, budget.qemu, budget.rustc, budget.profile, budget.instructions_per_tick
-    );
-    for p in &budget.presets {
-        let _ = writeln!(
-            s,
-            "- `{}`: {}; {} detections, {} points.",
-            p.preset, p.frame, p.detections, p.points
-        );
-    }
-    s.push('\n');
+/// Rows of an instruction table: stage keys and labels, then the stage whose cost is also
+/// shown per detection (in a row right after it) and that row's label.
+type StageRows = (
+    &'static [(&'static str, &'static str)],
+    &'static str,
+    &'static str,
+);
 
-    header(&mut s, "memory (bytes)");
-    let symbols: Vec<(String, String)> = budget
-        .presets
-        .first()
-        .map(|p| {
-            p.buffers
-                .iter()
-                .map(|b| (b.symbol.clone(), b.what.clone()))
-                .collect()
-        })
-        .unwrap_or_default();
-    for (symbol, what) in &symbols {
-        row(&mut s, &format!("`{symbol}`: {what}"), &|p| {
-            p.buffers
-                .iter()
-                .find(|b| &b.symbol == symbol)
-                .map_or("—".into(), |b| thousands(b.bytes))
-        });
-    }
-    row(&mut s, "**static RAM** (`.data` + `.bss`)", &|p| {
-        format!("**{}**", thousands(p.static_ram_bytes))
-    });
-    row(&mut s, "stack peak, setup (`Dbe::configure`)", &|p| {
-        thousands(p.stack_peak_setup_bytes)
-    });
-    row(&mut s, "stack peak, one frame (ingest + process)", &|p| {
-        thousands(p.stack_peak_frame_bytes)
-    });
-    row(&mut s, "**RAM total** (static + stack peak)", &|p| {
-        format!(
-            "**{}** ({})",
-            thousands(p.ram_total_bytes),
-            human(p.ram_total_bytes)
-        )
-    });
-    row(
-        &mut s,
-        "**flash** (vectors + `.text` + `.rodata` + `.data` image, without the test frame)",
-        &|p| {
-            format!(
-                "**{}** ({})",
-                thousands(p.flash_bytes),
-                human(p.flash_bytes)
-            )
-        },
-    );
-    row(
-        &mut s,
-        "embedded test frame (`.rodata`, test input only)",
-        &|p| thousands(p.embedded_frame_bytes),
-    );
-    s.push('\n');
-
-    header(&mut s, "instructions");
-    let stages: [(&str, &str); 9] = [
+/// The DBE chain's instruction table.
+const DBE_STAGES: StageRows = (
+    &[
         (
             "range_fft_per_chirp",
             "range FFT per chirp (`push_chirp`, mean)",
@@ -1200,23 +1277,243 @@ pub fn render_markdown(budget: &Budget) -> String {
         ("process", "`process` (stages 1–5)"),
         ("total", "**per frame** (ingest + process)"),
         ("setup", "setup: `Dbe::configure` (once)"),
-    ];
-    for (key, label) in stages {
-        row(&mut s, label, &|p| {
+    ],
+    "elevation_doppler",
+    "stages 3–5 per detection (÷ detections)",
+);
+
+/// The FFT chain's instruction table.
+const FFT_STAGES: StageRows = (
+    &[
+        (
+            "range_fft_per_chirp",
+            "range FFT per chirp (`push_chirp`, mean)",
+        ),
+        ("range_fft_chirp_max", "range FFT per chirp, worst"),
+        ("ingest", "ingest: all K·TX chirps"),
+        (
+            "doppler_fft",
+            "Doppler FFTs + non-coherent sum, RD map (stage 1)",
+        ),
+        (
+            "rd_cfar",
+            "CA-CFAR + 3×3 local maximum on the RD map (stage 2)",
+        ),
+        (
+            "angles",
+            "Doppler bin + TDM compensation + beamscan + elevation (stage 3)",
+        ),
+        ("process", "`process` (stages 1–3)"),
+        ("total", "**per frame** (ingest + process)"),
+        ("setup", "setup: `FftChain::new` (once)"),
+    ],
+    "angles",
+    "stage 3 per detection (÷ detections)",
+);
+
+/// One table row: its label and how to fill a column's cell.
+type Row<'a> = (String, &'a dyn Fn(&PresetBudget) -> String);
+
+/// One Markdown table: a header over `cols`, then one row per `(label, cell)`.
+fn table(s: &mut String, first: &str, cols: &[&PresetBudget], rows: &[Row<'_>]) {
+    let names: Vec<&str> = cols.iter().map(|p| p.preset.as_str()).collect();
+    let _ = writeln!(s, "| {first} | {} |", names.join(" | "));
+    let _ = writeln!(s, "|---|{}", "---:|".repeat(names.len()));
+    for (label, f) in rows {
+        let cells: Vec<String> = cols.iter().map(|p| f(p)).collect();
+        let _ = writeln!(s, "| {label} | {} |", cells.join(" | "));
+    }
+}
+
+/// The instruction table of `cols` (one chain's images) with `stages`' rows.
+fn stage_table(s: &mut String, first: &str, cols: &[&PresetBudget], stages: StageRows) {
+    let (rows, per_detection, per_detection_label) = stages;
+    let cell = |key: &'static str| {
+        move |p: &PresetBudget| {
             p.instructions_per_stage
                 .get(key)
                 .map_or("—".into(), |v| thousands(*v))
-        });
-        if key == "elevation_doppler" {
-            row(
-                &mut s,
-                "stages 3–5 per detection (÷ detections)",
-                &|p| match (p.instructions_per_stage.get(key), u64::from(p.detections)) {
-                    (Some(v), d) if d > 0 => thousands(v / d),
-                    _ => "—".into(),
-                },
-            );
         }
+    };
+    let per_det = move |p: &PresetBudget| match (
+        p.instructions_per_stage.get(per_detection),
+        u64::from(p.detections),
+    ) {
+        (Some(v), d) if d > 0 => thousands(v / d),
+        _ => "—".into(),
+    };
+    let cells: Vec<_> = rows.iter().map(|(key, _)| cell(key)).collect();
+    let mut table_rows: Vec<Row<'_>> = Vec::new();
+    for ((key, label), f) in rows.iter().zip(&cells) {
+        table_rows.push(((*label).to_string(), f));
+        if *key == per_detection {
+            table_rows.push((per_detection_label.into(), &per_det));
+        }
+    }
+    table(s, first, cols, &table_rows);
+}
+
+/// The Markdown tables of the budget block (without the marker lines).
+pub fn render_markdown(budget: &Budget) -> String {
+    let mut s = String::new();
+    let all: Vec<&PresetBudget> = budget.presets.iter().collect();
+    let of_chain = |chain: Chain| -> Vec<&PresetBudget> {
+        all.iter()
+            .copied()
+            .filter(|p| p.chain == chain_name(chain))
+            .collect()
+    };
+    let (dbe, fft) = (of_chain(Chain::Dbe), of_chain(Chain::Fft));
+    let _ = writeln!(
+        s,
+        "Generated by `{}` from `docs/budget.json`; do not edit by hand.\n",
+        budget.command
+    );
+    let _ = writeln!(
+        s,
+        "Measured on {} under {}, firmware built by {} ({}). Instruction counts are guest \
+         instructions (QEMU `-icount shift=0,sleep=off`: 1 instruction = 1 ns of virtual time; \
+         the MPS2 FPGA counter ticks every {} instructions, calibrated against a delay loop of \
+         known length), not cycles.\n",
+        budget.board, budget.qemu, budget.rustc, budget.profile, budget.instructions_per_tick
+    );
+    let _ = writeln!(
+        s,
+        "One image per preset and chain: `X` runs the DBE chain, `X-fft` the FFT baseline chain \
+         on the same embedded frame (each measured on its own, so neither changes the other's \
+         figures).\n"
+    );
+    for p in &budget.presets {
+        let _ = writeln!(
+            s,
+            "- `{}`: {}; {} detections, {} points.",
+            p.preset, p.frame, p.detections, p.points
+        );
+    }
+    s.push('\n');
+
+    // Every named buffer of any image, in first-seen order, `other` last.
+    let mut symbols: Vec<(String, String)> = Vec::new();
+    for b in all.iter().flat_map(|p| p.buffers.iter()) {
+        if b.symbol != "other" && !symbols.iter().any(|(sym, _)| *sym == b.symbol) {
+            symbols.push((b.symbol.clone(), b.what.clone()));
+        }
+    }
+    if let Some(b) = all
+        .iter()
+        .flat_map(|p| p.buffers.iter())
+        .find(|b| b.symbol == "other")
+    {
+        symbols.push((b.symbol.clone(), b.what.clone()));
+    }
+    let buffer_cells: Vec<_> = symbols
+        .iter()
+        .map(|(symbol, _)| {
+            move |p: &PresetBudget| {
+                p.buffers
+                    .iter()
+                    .find(|b| &b.symbol == symbol)
+                    .map_or("—".into(), |b| thousands(b.bytes))
+            }
+        })
+        .collect();
+    let mut rows: Vec<Row<'_>> = symbols
+        .iter()
+        .zip(&buffer_cells)
+        .map(|((symbol, what), f)| {
+            (
+                format!("`{symbol}`: {what}"),
+                f as &dyn Fn(&PresetBudget) -> String,
+            )
+        })
+        .collect();
+    let static_ram = |p: &PresetBudget| format!("**{}**", thousands(p.static_ram_bytes));
+    let setup = |p: &PresetBudget| thousands(p.stack_peak_setup_bytes);
+    let frame = |p: &PresetBudget| thousands(p.stack_peak_frame_bytes);
+    let ram = |p: &PresetBudget| {
+        format!(
+            "**{}** ({})",
+            thousands(p.ram_total_bytes),
+            human(p.ram_total_bytes)
+        )
+    };
+    let flash = |p: &PresetBudget| {
+        format!(
+            "**{}** ({})",
+            thousands(p.flash_bytes),
+            human(p.flash_bytes)
+        )
+    };
+    let embedded = |p: &PresetBudget| thousands(p.embedded_frame_bytes);
+    rows.push(("**static RAM** (`.data` + `.bss`)".into(), &static_ram));
+    rows.push((
+        "stack peak, setup (`Dbe::configure` / `FftChain::new`)".into(),
+        &setup,
+    ));
+    rows.push(("stack peak, one frame (ingest + process)".into(), &frame));
+    rows.push(("**RAM total** (static + stack peak)".into(), &ram));
+    rows.push((
+        "**flash** (vectors + `.text` + `.rodata` + `.data` image, without the test frame)".into(),
+        &flash,
+    ));
+    rows.push((
+        "embedded test frame (`.rodata`, test input only)".into(),
+        &embedded,
+    ));
+    table(&mut s, "memory (bytes)", &all, &rows);
+    s.push('\n');
+
+    // Both chains on one cube: a DBE image plus the FFT chain's own statics (derived).
+    let both: Vec<String> = dbe
+        .iter()
+        .filter_map(|d| {
+            let f = fft
+                .iter()
+                .find(|f| f.preset == format!("{}-fft", d.preset))?;
+            let own: u64 = f
+                .buffers
+                .iter()
+                .filter(|b| b.symbol == "FFT_CHAIN" || b.symbol == "FFT_WORKSPACE")
+                .map(|b| b.bytes)
+                .sum();
+            Some(format!(
+                "`{}` + {} = {} bytes of static RAM, a frame {} + {} = {} instructions",
+                d.preset,
+                thousands(own),
+                thousands(d.static_ram_bytes + own),
+                thousands(d.instructions_per_frame),
+                thousands(
+                    f.instructions_per_stage
+                        .get("process")
+                        .copied()
+                        .unwrap_or(0)
+                ),
+                thousands(
+                    d.instructions_per_frame
+                        + f.instructions_per_stage
+                            .get("process")
+                            .copied()
+                            .unwrap_or(0)
+                )
+            ))
+        })
+        .collect();
+    if !both.is_empty() {
+        let _ = writeln!(
+            s,
+            "Both chains on one cube (derived from the rows above, not measured as one image): \
+             the DBE image plus `FFT_CHAIN` + `FFT_WORKSPACE`, and the FFT chain's `process` \
+             on the cube the DBE chain ingested: {}.\n",
+            both.join("; ")
+        );
+    }
+
+    if !dbe.is_empty() {
+        stage_table(&mut s, "instructions, DBE chain", &dbe, DBE_STAGES);
+    }
+    if !fft.is_empty() {
+        s.push('\n');
+        stage_table(&mut s, "instructions, FFT chain", &fft, FFT_STAGES);
     }
     s
 }
@@ -1371,6 +1668,7 @@ E ok
     fn parses_a_complete_run() {
         let run = parse_output(GOOD).expect("a complete run parses");
         assert_eq!(run.preset, "iwr6843");
+        assert_eq!(run.chain, Chain::Dbe);
         assert_eq!(run.sizes, (256, 64, 3, 4));
         assert_eq!(run.instructions_per_tick, 40);
         assert_eq!(run.points.len(), 1);
@@ -1378,6 +1676,168 @@ E ok
         assert_eq!(run.points[0].elevation_bin, 47);
         assert_eq!(run.stages["total"], 67_931_052);
         assert_eq!((run.stack_setup, run.stack_frame), (62_004, 11_192));
+    }
+
+    const GOOD_FFT: &str =
+        "H preset coloradar chain fft samples 128 loops 128 tx 3 rx 4 azimuth_bins 188 elevation_bins 101
+C 40000000 1000000 40
+R 24 0 12385211000000 1538180
+Q 24 109 62 0 2.919707 -0.602998 0.3132604 0 130.92903 69.05896
+F 1 0 1 0 0 0
+S ingest 27944560 698614
+S total 48416080 1210402
+M stack_setup 60380
+M stack_frame 3768
+E ok
+";
+
+    #[test]
+    fn parses_an_fft_run_and_keeps_the_chains_apart() {
+        let run = parse_output(GOOD_FFT).expect("a complete FFT run parses");
+        assert_eq!((run.preset.as_str(), run.chain), ("coloradar", Chain::Fft));
+        assert!(run.detections.is_empty());
+        assert_eq!(
+            run.rd_detections,
+            vec![FwRdDetection {
+                range_bin: 24,
+                doppler_bin: 0,
+                power: 12_385_211_000_000.0,
+                level: 1_538_180.0,
+            }]
+        );
+        assert_eq!(run.points.len(), 1);
+        assert_eq!(run.points[0].z, f64::from(0.313_260_4_f32));
+        // Each chain's lines only in its own run, reported at the offending line.
+        let p_in_fft = GOOD_FFT.replace("Q 24", "P 24");
+        assert!(matches!(
+            parse_output(&p_in_fft),
+            Err(FirmwareError::Output { line: 4, .. })
+        ));
+        let d_in_fft = GOOD_FFT.replace("R 24", "D 24");
+        assert!(matches!(
+            parse_output(&d_in_fft),
+            Err(FirmwareError::Output { line: 3, .. })
+        ));
+        let q_in_dbe = GOOD.replace("P 38", "Q 38");
+        assert!(matches!(
+            parse_output(&q_in_dbe),
+            Err(FirmwareError::Output { line: 4, .. })
+        ));
+        let unknown = GOOD_FFT.replace("chain fft", "chain music");
+        assert!(matches!(
+            parse_output(&unknown),
+            Err(FirmwareError::Output { line: 1, .. })
+        ));
+        // The detection count is checked against the `R` lines.
+        let miscounted = GOOD_FFT.replace("F 1 0 1", "F 2 0 1");
+        assert!(parse_output(&miscounted).is_err());
+    }
+
+    fn entry(image: Image, buffers: &[(&str, u64)], stages: &[(&str, u64)]) -> PresetBudget {
+        PresetBudget {
+            preset: image.name().into(),
+            chain: chain_name(image.chain).into(),
+            frame: "f".into(),
+            detections: 2,
+            points: 2,
+            static_ram_bytes: buffers.iter().map(|b| b.1).sum(),
+            buffers: buffers
+                .iter()
+                .map(|&(symbol, bytes)| Buffer {
+                    symbol: symbol.into(),
+                    what: "w".into(),
+                    section: ".bss".into(),
+                    bytes,
+                })
+                .collect(),
+            stack_peak_bytes: 10,
+            stack_peak_setup_bytes: 10,
+            stack_peak_frame_bytes: 5,
+            ram_total_bytes: 0,
+            flash_bytes: 0,
+            embedded_frame_bytes: 0,
+            instructions_per_frame: stages.iter().find(|s| s.0 == "total").map_or(0, |s| s.1),
+            instructions_per_stage: stages.iter().map(|&(k, v)| (k.into(), v)).collect(),
+        }
+    }
+
+    #[test]
+    fn markdown_keeps_each_chain_in_its_own_table() {
+        let budget = Budget {
+            method: String::new(),
+            command: UPDATE_COMMAND.into(),
+            board: String::new(),
+            qemu: String::new(),
+            rustc: String::new(),
+            profile: String::new(),
+            instructions_per_tick: 40,
+            presets: vec![
+                entry(
+                    Image::dbe(Preset::ColoRadar),
+                    &[("CUBE", 1000), ("DBE", 300), ("other", 0)],
+                    &[("elevation_doppler", 600), ("total", 5000)],
+                ),
+                entry(
+                    Image::fft(Preset::ColoRadar),
+                    &[("CUBE", 1000), ("FFT_CHAIN", 200), ("FFT_WORKSPACE", 70)],
+                    &[("angles", 100), ("process", 2000), ("total", 4000)],
+                ),
+            ],
+        };
+        let md = render_markdown(&budget);
+        assert!(
+            md.contains("| memory (bytes) | coloradar | coloradar-fft |"),
+            "{md}"
+        );
+        // A buffer an image lacks is a dash; `other` comes last.
+        assert!(md.contains("| `DBE`: w | 300 | — |"), "{md}");
+        assert!(md.contains("| `FFT_CHAIN`: w | — | 200 |"), "{md}");
+        let other = md.find("| `other`").expect("other row");
+        assert!(
+            md.find("| `FFT_WORKSPACE`").is_some_and(|i| i < other),
+            "{md}"
+        );
+        // Separate instruction tables with their own per-detection rows.
+        assert!(
+            md.contains("| instructions, DBE chain | coloradar |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| instructions, FFT chain | coloradar-fft |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| stages 3–5 per detection (÷ detections) | 300 |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| stage 3 per detection (÷ detections) | 50 |"),
+            "{md}"
+        );
+        // Both chains on one cube: the DBE image + FFT_CHAIN + FFT_WORKSPACE, and its frame
+        // + the FFT `process`.
+        assert!(
+            md.contains("`coloradar` + 270 = 1,570 bytes of static RAM, a frame 5,000 + 2,000 = 7,000 instructions"),
+            "{md}"
+        );
+    }
+
+    #[test]
+    fn image_names_are_the_binaries() {
+        let names: Vec<&str> = Image::ALL.iter().map(|i| i.name()).collect();
+        assert_eq!(
+            names,
+            ["coloradar", "iwr6843", "coloradar-fft", "iwr6843-fft"]
+        );
+        let layout = Layout::this_repo();
+        for image in Image::ALL {
+            let bin = layout
+                .firmware()
+                .join("src")
+                .join("bin")
+                .join(format!("{}.rs", image.name().replace('-', "_")));
+            assert!(bin.is_file(), "{image}: no {}", bin.display());
+        }
     }
 
     #[test]
