@@ -3,11 +3,13 @@
 
 pub mod cloud;
 pub mod core_run;
+pub mod eval;
 pub mod firmware;
 pub mod frame;
 pub mod harness;
 pub mod io;
 pub mod plot;
 pub mod reference;
+pub mod score;
 pub mod sensor;
 pub mod sim;

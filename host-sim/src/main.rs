@@ -26,6 +26,9 @@ enum Command {
     Plot(cli::plot::PlotArgs),
     /// Simulate the built-in scene, process, validate, measure accuracy and plot.
     Demo(cli::demo::DemoArgs),
+    /// Compare the DBE and FFT chains with each other and the Cramér–Rao bound on simulated
+    /// scenes; write a report (Markdown, CSV, PNG, JSON).
+    Eval(cli::eval::EvalArgs),
 }
 
 fn main() -> ExitCode {
@@ -36,6 +39,7 @@ fn main() -> ExitCode {
         Command::Validate(a) => cli::validate::run(a),
         Command::Plot(a) => cli::plot::run(a),
         Command::Demo(a) => cli::demo::run(a),
+        Command::Eval(a) => cli::eval::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1253,6 +1253,8 @@ mod tests {
         let mut params = Params::defaults(20);
         params.range_first = 0;
         params.range_last = 19;
+        // The mechanics under test do not depend on the default threshold: pin α = 12 dB.
+        params.cfar.threshold_db = 12.0;
         // Full window around (10, 20): 13 × 25 − 5 × 9 = 280 training cells, k = ⌈0.75·280⌉
         // = 210. Raise exactly 70 of them (rows 4, 5 and 20 cells of row 6) to 5: the 210th
         // smallest is still 1; one more raised cell makes it 5.

@@ -7,10 +7,10 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use host_sim::cloud::PointRecord;
 use host_sim::io::StagedDir;
+use host_sim::score::{self, Accuracy, MATCH_RADIUS_M};
 use host_sim::sensor::SensorConfig;
-use host_sim::sim::{ObjectKind, Scene, SimFrame};
+use host_sim::sim::{Scene, SimFrame};
 
 use super::input::Input;
 use super::process::{run_frames, write_outputs, Format, FrameResult, Pipeline};
@@ -18,10 +18,6 @@ use super::ParamArgs;
 
 /// Marks a folder as `dbe demo` output, which a later demo may replace.
 const MARKER: &str = ".dbe-demo";
-
-/// A point within this distance of a target counts as its detection; farther from every
-/// target and surface sample, it is a false point (the 0.6 m).
-const MATCH_RADIUS_M: f64 = 0.6;
 
 /// Arguments of `dbe demo`.
 #[derive(Args, Debug)]
@@ -36,66 +32,14 @@ pub struct DemoArgs {
     pub params: ParamArgs,
 }
 
-/// Accuracy of one run against ground truth (point targets).
-#[derive(Debug, Default, serde::Serialize)]
-pub struct Accuracy {
-    pub targets: usize,
-    pub detected: usize,
-    pub azimuth_rmse_deg: f64,
-    pub elevation_rmse_deg: f64,
-    pub doppler_rmse_mps: f64,
-    pub false_points_per_frame: f64,
-    pub points_per_frame: f64,
-}
-
-/// Compare `results` with the ground truth of `frames`.
-pub fn accuracy(frames: &[SimFrame], results: &[FrameResult]) -> Accuracy {
-    let mut a = Accuracy::default();
-    let (mut az2, mut el2, mut v2) = (0.0, 0.0, 0.0);
-    let mut false_points = 0usize;
-    let mut points = 0usize;
-    for (f, r) in frames.iter().zip(results.iter()) {
-        let visible: Vec<_> = f.truth.objects.iter().filter(|o| o.visible).collect();
-        for t in visible.iter().filter(|o| o.kind == ObjectKind::Point) {
-            a.targets += 1;
-            let best = r
-                .points
-                .iter()
-                .map(|p| (distance(p, t.position), p))
-                .min_by(|x, y| x.0.total_cmp(&y.0));
-            if let Some((d, p)) = best.filter(|(d, _)| *d <= MATCH_RADIUS_M) {
-                let _ = d;
-                a.detected += 1;
-                let look = host_sim::sim::truth::look([p.x, p.y, p.z], [0.0; 3]);
-                az2 += (look.azimuth_deg - t.azimuth_deg).powi(2);
-                el2 += (look.elevation_deg - t.elevation_deg).powi(2);
-                v2 += (p.doppler - t.radial_velocity_mps).powi(2);
-            }
-        }
-        for p in &r.points {
-            points += 1;
-            let near = visible.iter().any(|o| {
-                distance(p, o.position) <= MATCH_RADIUS_M
-                    || o.surface_points
-                        .iter()
-                        .any(|s| distance(p, *s) <= MATCH_RADIUS_M)
-            });
-            if !near {
-                false_points += 1;
-            }
-        }
-    }
-    let n = a.detected.max(1) as f64;
-    a.azimuth_rmse_deg = (az2 / n).sqrt();
-    a.elevation_rmse_deg = (el2 / n).sqrt();
-    a.doppler_rmse_mps = (v2 / n).sqrt();
-    a.false_points_per_frame = false_points as f64 / frames.len().max(1) as f64;
-    a.points_per_frame = points as f64 / frames.len().max(1) as f64;
-    a
-}
-
-fn distance(p: &PointRecord, t: [f64; 3]) -> f64 {
-    ((p.x - t[0]).powi(2) + (p.y - t[1]).powi(2) + (p.z - t[2]).powi(2)).sqrt()
+/// Score `results` against the ground truth of `frames`.
+fn accuracy(frames: &[SimFrame], results: &[FrameResult]) -> Accuracy {
+    score::accuracy(
+        frames
+            .iter()
+            .zip(results.iter())
+            .map(|(f, r)| (&f.truth, r.points.as_slice())),
+    )
 }
 
 /// Make room for the demo's output: refuse a non-empty folder that is not a previous demo.
@@ -164,7 +108,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         "   detected {}/{} targets ({:.1} %), azimuth RMSE {:.2}°, elevation RMSE {:.2}°, Doppler RMSE {:.3} m/s",
         acc.detected,
         acc.targets,
-        100.0 * acc.detected as f64 / acc.targets.max(1) as f64,
+        100.0 * acc.detection_rate(),
         acc.azimuth_rmse_deg,
         acc.elevation_rmse_deg,
         acc.doppler_rmse_mps

@@ -1,6 +1,7 @@
 //! The `dbe` subcommands.
 
 pub mod demo;
+pub mod eval;
 pub mod input;
 pub mod plot;
 pub mod process;
@@ -17,12 +18,16 @@ pub struct ParamArgs {
     /// Turn TDM-MIMO motion compensation off (reproduces the paper's chain).
     #[arg(long)]
     pub no_tdm_compensation: bool,
-    /// CFAR threshold α over the noise level, dB [default: 12].
+    /// CFAR threshold α over the noise level, dB [default: 8].
     #[arg(long, value_name = "DB")]
     pub cfar_threshold_db: Option<f32>,
     /// Diagonal loading γ (δ = γ·tr(R)/M) [default: 0.01].
     #[arg(long, value_name = "GAMMA")]
     pub loading: Option<f32>,
+    /// Sub-grid refinement of range, azimuth, elevation and Doppler (continuous coordinates
+    /// instead of grid values; bin indices unchanged).
+    #[arg(long)]
+    pub subgrid: bool,
 }
 
 impl ParamArgs {
@@ -30,6 +35,7 @@ impl ParamArgs {
     pub fn to_params(&self, sensor: &SensorConfig) -> Result<dbe_radar::Params> {
         let mut p = dbe_radar::Params::defaults(sensor.samples);
         p.tdm_compensation = !self.no_tdm_compensation;
+        p.subgrid = self.subgrid;
         if let Some(t) = self.cfar_threshold_db {
             p.cfar.threshold_db = t;
         }

@@ -1,0 +1,208 @@
+//! The `dbe` command as a user runs it: every subcommand, its help, and its failure modes.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+fn dbe(args: &[&str]) -> Output {
+    match Command::new(env!("CARGO_BIN_EXE_dbe")).args(args).output() {
+        Ok(o) => o,
+        Err(e) => panic!("cannot run dbe: {e}"),
+    }
+}
+
+fn ok(args: &[&str]) -> String {
+    let o = dbe(args);
+    assert!(
+        o.status.success(),
+        "dbe {args:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn fails(args: &[&str]) -> String {
+    let o = dbe(args);
+    assert!(!o.status.success(), "dbe {args:?} should fail");
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap_or_default()
+}
+
+#[test]
+fn every_subcommand_has_help() {
+    for sub in ["process", "simulate", "validate", "plot", "demo"] {
+        let help = ok(&[sub, "--help"]);
+        assert!(help.contains("Usage: dbe"), "{sub}: {help}");
+    }
+    assert!(ok(&["--help"]).contains("process"));
+}
+
+#[test]
+fn simulate_process_validate_plot() -> TestResult {
+    let tmp = tempfile::tempdir()?;
+    let seq = tmp.path().join("seq");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/moving_sensor.toml");
+    ok(&[
+        "simulate",
+        "--scene",
+        s(&scene),
+        "--frames",
+        "3",
+        "--out",
+        s(&seq),
+    ]);
+    assert!(seq
+        .join("single_chip/adc_samples/data/frame_2.bin")
+        .is_file());
+    assert!(seq.join("calib/single_chip/antenna_cfg.txt").is_file());
+    assert!(seq.join("groundtruth/frame_0.json").is_file());
+
+    let out = tmp.path().join("points");
+    let msg = ok(&[
+        "process",
+        s(&seq),
+        "--out",
+        s(&out),
+        "--format",
+        "coloradar,csv,pcd,ply",
+    ]);
+    assert!(msg.contains("3 frames"), "{msg}");
+    let clouds = host_sim::io::read_coloradar_pointclouds(&out)?;
+    assert_eq!(clouds.len(), 3);
+    assert!(
+        clouds.iter().all(|(_, pts)| pts.len() >= 3),
+        "three reflectors per frame"
+    );
+    let csv = host_sim::io::pointcloud::read_csv(&out.join("csv/frame_1.csv"))?;
+    assert_eq!(csv.len(), clouds[1].1.len());
+    for f in [
+        "pcd/frame_0.pcd",
+        "ply/frame_2.ply",
+        "single_chip/pointclouds/timestamps.txt",
+    ] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+
+    // The FFT chain and the switches run too; a frame range selects frames.
+    let fft = tmp.path().join("fft");
+    ok(&[
+        "process",
+        s(&seq),
+        "--out",
+        s(&fft),
+        "--pipeline",
+        "fft",
+        "--frames",
+        "1..3",
+        "--subgrid",
+    ]);
+    assert_eq!(host_sim::io::read_coloradar_pointclouds(&fft)?.len(), 2);
+
+    let table = ok(&["validate", s(&seq)]);
+    assert!(table.contains("3 of 3 frames match"), "{table}");
+
+    let plots = tmp.path().join("plots");
+    ok(&["plot", s(&seq), "--frame", "2", "--out", s(&plots)]);
+    for f in [
+        "range_azimuth_2.png",
+        "points_top_2.png",
+        "points_side_2.png",
+    ] {
+        assert!(plots.join(f).is_file(), "{f}");
+    }
+    Ok(())
+}
+
+#[test]
+fn failures_are_one_line_errors_and_leave_nothing_behind() -> TestResult {
+    let tmp = tempfile::tempdir()?;
+    let missing = tmp.path().join("nope");
+    let err = fails(&["process", s(&missing), "--out", s(&tmp.path().join("o"))]);
+    assert!(err.contains("no such file or folder"), "{err}");
+    assert!(!tmp.path().join("o").exists());
+
+    // A truncated DCA1000 capture: the size matches no whole number of frames.
+    let bin = tmp.path().join("short.bin");
+    std::fs::write(&bin, vec![0u8; 1000])?;
+    let out = tmp.path().join("out");
+    let err = fails(&["process", s(&bin), "--out", s(&out)]);
+    assert!(err.contains("short.bin"), "{err}");
+    assert!(!out.exists());
+    assert_eq!(
+        std::fs::read_dir(tmp.path())?.count(),
+        1,
+        "no staging left behind"
+    );
+
+    // An existing, non-empty output folder is never overwritten.
+    let taken = tmp.path().join("taken");
+    std::fs::create_dir(&taken)?;
+    std::fs::write(taken.join("keep.txt"), "mine")?;
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/single_target.toml");
+    let err = fails(&[
+        "simulate",
+        "--scene",
+        s(&scene),
+        "--frames",
+        "1",
+        "--out",
+        s(&taken),
+    ]);
+    assert!(err.contains("not empty"), "{err}");
+    assert_eq!(std::fs::read_to_string(taken.join("keep.txt"))?, "mine");
+
+    let err = fails(&["process", s(&bin), "--out", s(&out), "--format", "xyz"]);
+    assert!(err.contains("xyz"), "{err}");
+    Ok(())
+}
+
+#[test]
+fn demo_runs_and_replaces_only_its_own_output() -> TestResult {
+    let tmp = tempfile::tempdir()?;
+    let out: PathBuf = tmp.path().join("demo");
+    let text = ok(&["demo", "--frames", "2", "--out", s(&out)]);
+    assert!(text.contains("2 of 2 frames match"), "{text}");
+    assert!(out.join("summary.json").is_file() && out.join("plots").is_dir());
+    // A second demo replaces the first; a folder that is not a demo's is refused.
+    ok(&["demo", "--frames", "1", "--out", s(&out)]);
+    let other = tmp.path().join("other");
+    std::fs::create_dir(&other)?;
+    std::fs::write(other.join("x"), "")?;
+    let err = fails(&["demo", "--frames", "1", "--out", s(&other)]);
+    assert!(err.contains("not a previous `dbe demo` output"), "{err}");
+    Ok(())
+}
+
+/// The real TI capture: the corner reflector at range bin 38 (its folder holds the calibration).
+#[test]
+fn processes_the_real_capture() -> TestResult {
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared");
+    let bin = shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin");
+    if !bin.is_file() {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "{} is missing (../shared beside the repository)",
+            bin.display()
+        );
+        eprintln!("skipped: {} not found", bin.display());
+        return Ok(());
+    }
+    let tmp = tempfile::tempdir()?;
+    let out = tmp.path().join("ti");
+    ok(&["process", s(&bin), "--out", s(&out), "--format", "csv"]);
+    let pts = host_sim::io::pointcloud::read_csv(&out.join("csv/frame_0.csv"))?;
+    let strongest = pts
+        .iter()
+        .max_by(|a, b| a.intensity_db.total_cmp(&b.intensity_db))
+        .ok_or("no points")?;
+    assert!(
+        strongest.range_bin.abs_diff(38) <= 1 && strongest.doppler_bin == 0,
+        "{strongest:?}"
+    );
+    Ok(())
+}

@@ -1,0 +1,453 @@
+//! `dbe eval` as a library: the Cramér–Rao bound against a numerical Fisher information, the
+//! Chamfer distance's identities, and a `--quick`-sized evaluation checked for structure and
+//! for physics that cannot hold by accident (bounds not beaten, grid floors, the DBE
+//! detection threshold, TDM bias, coherent pairs in the FFT chain, the simulator's velocity
+//! scale).
+
+use std::sync::OnceLock;
+
+use host_sim::eval::chamfer::{chamfer, voxel_downsample, P3};
+use host_sim::eval::crb::{direction_cosine_crb, omega_crb, SnapshotModel, Source, Unknown};
+use host_sim::eval::scenarios::Pair;
+use host_sim::eval::tables::{AZIMUTH_STEP_DEG, EXTENDED_SCENES};
+use host_sim::eval::{names, run_evaluation, write_report, EvalConfig, EvalError, Evaluation};
+use num_complex::Complex64;
+
+/// Relative difference.
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs().max(f64::MIN_POSITIVE)
+}
+
+/// The bound from the inverse of the finite-difference Fisher information.
+fn fd_crb(model: &SnapshotModel, s: &Source, unknowns: &[Unknown], noise: f64) -> Vec<f64> {
+    let j = model.fisher_finite_difference(s, unknowns, noise, 1e-6);
+    let inv = j
+        .try_inverse()
+        .expect("finite-difference Fisher information is invertible");
+    inv.diagonal().iter().copied().collect()
+}
+
+#[test]
+fn crb_closed_forms_match_the_finite_difference_fisher_information() -> Result<(), EvalError> {
+    use Unknown::*;
+    let full = SnapshotModel::coloradar()?;
+    // Without TDM offsets the closed forms are exact.
+    let mut flat = full.clone();
+    flat.offset.iter_mut().for_each(|o| *o = 0.0);
+    let line = flat.first(8);
+    let noise = 2.5;
+    for (mu, nu, omega, snr_db) in [
+        (0.3, 0.15, 0.2, 10.0),
+        (-0.6, -0.2, -1.1, 0.0),
+        (0.0, 0.0, 0.0, 25.0),
+    ] {
+        let rho = 10f64.powf(snr_db / 10.0);
+        let s = Source {
+            mu,
+            nu,
+            omega,
+            amplitude: Complex64::from_polar((rho * noise).sqrt(), 1.1),
+        };
+        let k = flat.loops;
+        // The analytic Fisher information equals the finite-difference one.
+        let unknowns = [Mu, Nu, Omega, AmplitudeRe, AmplitudeIm];
+        let a = full.fisher(&s, &unknowns, noise);
+        let d = full.fisher_finite_difference(&s, &unknowns, noise, 1e-6);
+        for i in 0..5 {
+            for j in 0..5 {
+                let scale = (a[(i, i)] * a[(j, j)]).sqrt();
+                assert!(
+                    (a[(i, j)] - d[(i, j)]).abs() <= 1e-6 * scale,
+                    "J[{i},{j}]: {} vs {}",
+                    a[(i, j)],
+                    d[(i, j)]
+                );
+            }
+        }
+        // Azimuth: 8-element line, CRB(μ) = 1/(84·ρ·K·κ²).
+        let (var_mu, _) = direction_cosine_crb(rho, k, &line.az, &line.el, line.kappa);
+        assert!(rel(var_mu, 1.0 / (84.0 * rho * k as f64 * line.kappa.powi(2))) < 1e-12);
+        let fd = fd_crb(&line, &s, &[Mu, Omega, AmplitudeRe, AmplitudeIm], noise);
+        assert!(rel(fd[0], var_mu) < 1e-6, "μ: {} vs {var_mu}", fd[0]);
+        // Elevation: 12 elements, μ unknown too, CRB(ν) = 3/(16·ρ·K·κ²).
+        let (_, var_nu) = direction_cosine_crb(rho, k, &flat.az, &flat.el, flat.kappa);
+        assert!(rel(var_nu, 3.0 / (16.0 * rho * k as f64 * flat.kappa.powi(2))) < 1e-12);
+        let fd = fd_crb(&flat, &s, &unknowns, noise);
+        assert!(rel(fd[1], var_nu) < 1e-6, "ν: {} vs {var_nu}", fd[1]);
+        // Doppler: CRB(ω) = 6/(ρ·M·K·(K² − 1)).
+        let var_om = omega_crb(rho, 12, k);
+        assert!(rel(fd[2], var_om) < 1e-6, "ω: {} vs {var_om}", fd[2]);
+        // With the TDM offsets the exact bound moves by far less than 0.1 %.
+        let exact = full.crb(&s, &unknowns, noise)?;
+        assert!(
+            rel(exact[1], var_nu) < 1e-3 && rel(exact[2], var_om) < 1e-3,
+            "{exact:?}"
+        );
+        let exact = full
+            .first(8)
+            .crb(&s, &[Mu, Omega, AmplitudeRe, AmplitudeIm], noise)?;
+        assert!(rel(exact[0], var_mu) < 1e-3, "{exact:?}");
+    }
+    // The line alone cannot see elevation: a singular information is a typed error.
+    let s = Source {
+        mu: 0.1,
+        nu: 0.1,
+        omega: 0.0,
+        amplitude: Complex64::new(1.0, 0.0),
+    };
+    assert!(line_singular(&full.first(8), &s));
+    Ok(())
+}
+
+fn line_singular(line: &SnapshotModel, s: &Source) -> bool {
+    line.crb(
+        s,
+        &[
+            Unknown::Mu,
+            Unknown::Nu,
+            Unknown::AmplitudeRe,
+            Unknown::AmplitudeIm,
+        ],
+        1.0,
+    )
+    .is_err()
+}
+
+#[test]
+fn chamfer_of_identical_clouds_is_zero_and_of_a_shifted_cloud_is_the_shift() {
+    // A 5 × 5 × 3 grid of 1 m spacing.
+    let mut cloud: Vec<P3> = Vec::new();
+    for i in 0..5 {
+        for j in 0..5 {
+            for k in 0..3 {
+                cloud.push([i as f64, j as f64 - 2.0, 0.5 * k as f64 + 0.25]);
+            }
+        }
+    }
+    let same = chamfer(&cloud, &cloud).expect("non-empty");
+    assert_eq!(
+        (same.distance, same.accuracy, same.completeness),
+        (0.0, 0.0, 0.0)
+    );
+    for (d, dir) in [
+        (0.1, [1.0, 0.0, 0.0]),
+        (0.2, [0.6, -0.8, 0.0]),
+        (0.05, [0.48, 0.6, 0.64]),
+    ] {
+        let shifted: Vec<P3> = cloud
+            .iter()
+            .map(|p| std::array::from_fn(|i| p[i] + d * dir[i]))
+            .collect();
+        let c = chamfer(&shifted, &cloud).expect("non-empty");
+        assert!(
+            (c.distance - d).abs() < 1e-12 && (c.accuracy - d).abs() < 1e-12,
+            "{c:?}"
+        );
+    }
+    // One-sided coverage: a single point of the grid against the whole grid.
+    let c = chamfer(&cloud[..1], &cloud).expect("non-empty");
+    assert_eq!(c.accuracy, 0.0);
+    assert!(c.completeness > 1.0);
+    assert!(chamfer(&[], &cloud).is_none());
+    // Downsampling a cloud that is already coarser than the voxel changes nothing.
+    assert_eq!(voxel_downsample(&cloud, 0.2).len(), cloud.len());
+    // One voxel holding the whole (non-negative) cloud gives its centroid.
+    let positive: Vec<P3> = cloud.iter().map(|p| [p[0], p[1] + 2.0, p[2]]).collect();
+    let one = voxel_downsample(&positive, 10.0);
+    assert_eq!(one.len(), 1);
+    for (got, want) in one[0].iter().zip([2.0, 2.0, 0.75]) {
+        assert!((got - want).abs() < 1e-12, "{:?}", one[0]);
+    }
+}
+
+#[test]
+fn an_empty_configuration_is_a_typed_error() {
+    let mut c = EvalConfig::quick();
+    c.snr_db.clear();
+    assert!(matches!(
+        run_evaluation(&c, &|_| {}),
+        Err(EvalError::Setup(_))
+    ));
+    let mut c = EvalConfig::quick();
+    c.resolutions_m = vec![0.1, f64::NAN];
+    assert!(matches!(
+        run_evaluation(&c, &|_| {}),
+        Err(EvalError::Setup(_))
+    ));
+}
+
+/// The quick evaluation, run once for all tests below.
+fn quick() -> &'static Evaluation {
+    static EVAL: OnceLock<Evaluation> = OnceLock::new();
+    EVAL.get_or_init(|| match run_evaluation(&EvalConfig::quick(), &|_| {}) {
+        Ok(e) => e,
+        Err(e) => panic!("quick evaluation failed: {e}"),
+    })
+}
+
+#[test]
+fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn std::error::Error>> {
+    let e = quick();
+    let dir = tempfile::tempdir()?;
+    write_report(e, dir.path())?;
+    for f in [
+        "report.md",
+        "summary.json",
+        "accuracy.csv",
+        "resolution.csv",
+        "noise_only.csv",
+        "chamfer.csv",
+        "scenes.csv",
+        "defaults.csv",
+        "azimuth_rmse.png",
+        "elevation_rmse.png",
+        "doppler_rmse.png",
+        "detection_rate.png",
+        "resolution.png",
+        "chamfer_corridor.png",
+    ] {
+        let meta = std::fs::metadata(dir.path().join(f))?;
+        assert!(meta.len() > 100, "{f} is {} bytes", meta.len());
+    }
+    let png = std::fs::read(dir.path().join("azimuth_rmse.png"))?;
+    assert_eq!(&png[1..4], b"PNG");
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("summary.json"))?)?;
+    let cd = json["chamfer"]
+        .as_array()
+        .ok_or("summary.json has no chamfer array")?;
+    assert_eq!(cd.len(), EXTENDED_SCENES * e.config.resolutions_m.len());
+    for entry in cd {
+        for key in ["scene", "resolution", "dbe", "fft"] {
+            assert!(entry.get(key).is_some(), "{entry}");
+        }
+        // The FFT chain has points on every extended scene.
+        assert!(
+            entry["fft"].as_f64().is_some_and(|v| v > 0.0 && v < 10.0),
+            "{entry}"
+        );
+    }
+    assert_eq!(json["goals"].as_array().map(Vec::len), Some(4));
+    let md = std::fs::read_to_string(dir.path().join("report.md"))?;
+    for h in [
+        "## Definitions",
+        "## Angle accuracy",
+        "## Two-target resolution",
+        "## Chamfer distance",
+        "## Goals",
+        "## Defaults",
+    ] {
+        assert!(md.contains(h), "report.md lacks {h}");
+    }
+    // Every main variant has a row at every SNR.
+    for v in [
+        names::DBE,
+        names::FFT,
+        names::DBE_SUBGRID,
+        names::FFT_SUBGRID,
+        names::DBE_NO_TDM,
+        names::FFT_NO_TDM,
+    ] {
+        for &s in &e.config.snr_db {
+            let r = e.accuracy_at(v, s).ok_or(format!("no row {v} {s}"))?;
+            assert_eq!(r.trials, e.config.trials_per_snr);
+        }
+    }
+    assert!(!e.defaults.is_empty() && e.recommendations.len() == 4);
+    // A report never overwrites an unrelated folder's summary half-way: writing twice works.
+    write_report(e, dir.path())?;
+    Ok(())
+}
+
+#[test]
+fn no_estimator_beats_the_cramer_rao_bound() {
+    let e = quick();
+    let mut checked = 0;
+    for r in e.accuracy.iter().filter(|r| r.detected >= 8) {
+        // 0.7: the RMSE of 8–16 trials scatters by about 1/√(2n) ≈ 20 %.
+        for (rmse, crb, what) in [
+            (r.az_rmse_deg, r.crb_az_deg, "azimuth"),
+            (r.el_rmse_deg, r.crb_el_deg, "elevation"),
+            (r.doppler_rmse_mps, r.crb_doppler_mps, "velocity"),
+        ] {
+            let rmse = rmse.unwrap_or(f64::NAN);
+            assert!(
+                rmse >= 0.7 * crb,
+                "{} at {} dB: {what} RMSE {rmse} below the CRB {crb}",
+                r.variant,
+                r.snr_db
+            );
+            checked += 1;
+        }
+        // The bound scales as 1/√ρ: CRB·√ρ is the same at every SNR.
+        let rho = 10f64.powf(r.snr_db / 10.0);
+        let first = &e.accuracy[0];
+        let rho0 = 10f64.powf(first.snr_db / 10.0);
+        assert!(
+            rel(
+                r.crb_doppler_mps * rho.sqrt(),
+                first.crb_doppler_mps * rho0.sqrt()
+            ) < 1e-9
+        );
+    }
+    assert!(checked > 60, "{checked}");
+}
+
+#[test]
+fn angle_errors_shrink_with_snr_down_to_the_grid_floor() {
+    let e = quick();
+    let at = |v: &str, s: f64| e.accuracy_at(v, s).unwrap_or_else(|| panic!("{v} {s}"));
+    // Sub-grid FFT azimuth and FFT elevation (continuous) fall with SNR.
+    let (lo, hi) = (at(names::FFT_SUBGRID, -5.0), at(names::FFT_SUBGRID, 30.0));
+    let az = (
+        lo.az_rmse_deg.unwrap_or(0.0),
+        hi.az_rmse_deg.unwrap_or(f64::INFINITY),
+    );
+    assert!(az.0 > 3.0 * az.1, "azimuth {az:?}");
+    let el = (
+        lo.el_rmse_deg.unwrap_or(0.0),
+        hi.el_rmse_deg.unwrap_or(f64::INFINITY),
+    );
+    assert!(el.0 > 4.0 * el.1, "elevation {el:?}");
+    // On the grid, at 30 dB, both chains sit on the azimuth quantisation floor step/√12.
+    let floor = AZIMUTH_STEP_DEG / 12f64.sqrt();
+    for v in [names::DBE, names::FFT] {
+        let r = at(v, 30.0).az_rmse_deg.unwrap_or(f64::NAN);
+        assert!(
+            r > 0.6 * floor && r < 1.6 * floor,
+            "{v}: {r} vs floor {floor}"
+        );
+    }
+}
+
+#[test]
+fn doppler_errors_are_the_bin_quantisation_and_the_velocity_scale_of_the_model() {
+    let e = quick();
+    let bin = dbe_radar::Waveform::COLORADAR.doppler_bin_mps(128, 128, 3);
+    // λ·(N−1)/(4·N·Δr): the range-FFT phase centre's share of the slow-time phase.
+    let w = dbe_radar::Waveform::COLORADAR;
+    let predicted = w.wavelength_m(128) * 127.0 / (4.0 * 128.0 * w.range_bin_m(128));
+    assert!((predicted - 0.00767).abs() < 1e-4, "{predicted}");
+    for s in [10.0, 20.0, 30.0] {
+        for v in [names::DBE, names::FFT] {
+            let r = e
+                .accuracy_at(v, s)
+                .and_then(|r| r.doppler_rmse_mps)
+                .unwrap_or(f64::NAN);
+            // Quantisation (bin/√12) and the scale error (≈ 0.0077 · 0.58 m/s RMS) add.
+            let expected = ((bin * bin / 12.0) + (predicted * 0.577).powi(2)).sqrt();
+            assert!(
+                r > 0.6 * expected && r < 1.6 * expected,
+                "{v} {s} dB: {r} vs {expected}"
+            );
+        }
+        let slope = e
+            .accuracy_at(names::FFT_SUBGRID, s)
+            .and_then(|r| r.doppler_scale)
+            .unwrap_or(f64::NAN);
+        assert!(
+            (slope - predicted).abs() < 0.003,
+            "scale at {s} dB: {slope} vs {predicted}"
+        );
+    }
+}
+
+#[test]
+fn dbe_needs_snr_on_its_range_azimuth_map_and_the_fft_chain_does_not() {
+    let e = quick();
+    let pd = |v: &str, s: f64| e.accuracy_at(v, s).map_or(f64::NAN, |r| r.detection_rate);
+    // Peak-to-floor 1 + 8ρ = 3.5 (5.5 dB) at −5 dB: below α = 12 dB, no detection possible.
+    assert_eq!(pd(names::DBE, -5.0), 0.0);
+    for s in [10.0, 20.0, 30.0] {
+        assert_eq!(pd(names::DBE, s), 1.0, "{s} dB");
+        assert_eq!(pd(names::FFT, s), 1.0, "{s} dB");
+    }
+    // The FFT chain integrates 128 loops before its CFAR.
+    assert!(pd(names::FFT, -5.0) >= 0.75, "{}", pd(names::FFT, -5.0));
+    // Noise only: the default thresholds give (almost) no points.
+    for r in e
+        .noise
+        .iter()
+        .filter(|r| r.variant == names::DBE || r.variant == names::FFT)
+    {
+        assert!(r.false_points_per_frame <= 0.5, "{r:?}");
+    }
+}
+
+#[test]
+fn without_tdm_compensation_moving_targets_lose_their_elevation() {
+    let e = quick();
+    for (on, off) in [
+        (names::DBE, names::DBE_NO_TDM),
+        (names::FFT, names::FFT_NO_TDM),
+    ] {
+        let a = e
+            .accuracy_at(on, 20.0)
+            .and_then(|r| r.el_rmse_deg)
+            .unwrap_or(f64::NAN);
+        let b = e
+            .accuracy_at(off, 20.0)
+            .and_then(|r| r.el_rmse_deg)
+            .unwrap_or(0.0);
+        // About 11° per m/s of slot-phase bias, velocities uniform in ±1 m/s.
+        assert!(b > 5.0 * a && b > 2.0, "{on}: {a}° vs {off}: {b}°");
+    }
+    let scene = |v: &str| e.scene_at("moving_sensor", v).and_then(|r| r.el_rmse_deg);
+    assert!(
+        scene(names::DBE).is_some_and(|v| v < 1.0),
+        "{:?}",
+        scene(names::DBE)
+    );
+}
+
+#[test]
+fn the_fft_chain_never_resolves_a_coherent_pair_and_always_a_doppler_separated_one() {
+    let e = quick();
+    let snr = e.config.resolution_snr_db;
+    for &sep in &e.config.separations_deg {
+        let p = |v: &str, pair| {
+            e.resolution_at(v, pair, sep, snr)
+                .map_or(f64::NAN, |r| r.probability)
+        };
+        // One range–Doppler cell, one point.
+        assert_eq!(p(names::FFT, Pair::Coherent), 0.0, "{sep}°");
+        assert!(p(names::FFT, Pair::NonCoherent) >= 0.9, "{sep}°");
+    }
+    // The DBE chain resolves a non-coherent pair far apart, and not one 2° apart (a seventh of
+    // the Rayleigh width).
+    let p = |sep| {
+        e.resolution_at(names::DBE, Pair::NonCoherent, sep, snr)
+            .map_or(f64::NAN, |r| r.probability)
+    };
+    assert!(p(20.0) >= 0.9, "{}", p(20.0));
+    assert!(p(2.0) <= 0.25, "{}", p(2.0));
+}
+
+#[test]
+fn scene_points_lie_on_the_surfaces() {
+    let e = quick();
+    for s in [
+        "corridor",
+        "outdoor_poles_walls",
+        "cluttered_room",
+        "parking_lot",
+    ] {
+        let r = e.scene_at(s, names::FFT).unwrap_or_else(|| panic!("{s}"));
+        assert!(
+            r.truth_points_per_frame > 1000.0 && r.points_per_frame > 1.0,
+            "{r:?}"
+        );
+        for v in [names::DBE, names::FFT] {
+            // Points are within the match radius of a surface on average.
+            if let Some(a) = e.chamfer_at(s, 0.1, v).and_then(|c| c.accuracy_m) {
+                assert!(a < 0.6, "{s} {v}: {a}");
+            }
+        }
+    }
+    // The exact CRB and the closed form agree.
+    let k = &e.crb_check;
+    assert!(
+        k.mu.abs() < 1e-3 && k.nu.abs() < 1e-3 && k.omega.abs() < 1e-3,
+        "{k:?}"
+    );
+}
