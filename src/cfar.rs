@@ -158,9 +158,11 @@ pub fn detect<const N: usize, const NAZ: usize, const DET: usize>(
     }
 }
 
-/// Zero-based index of the `⌈q·n⌉`-th smallest of `n` values, clamped to `0..n`.
-fn ceil_index(q: f32, n: usize) -> usize {
-    let k = libm::ceilf(q * n as f32) as usize;
+/// Zero-based index of the `⌈q·n⌉`-th smallest of `n ≥ 1` values, clamped to `0..n`
+/// (shared with the range–Doppler CFAR).
+pub(crate) fn ceil_index(q: f32, n: usize) -> usize {
+    let k = libm::ceilf(q * n as f32);
+    let k = if k.is_finite() { k as usize } else { n };
     k.clamp(1, n) - 1
 }
 

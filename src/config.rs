@@ -399,9 +399,9 @@ impl Params {
             return Err(ConfigError::OutOfRange(Param::Loading));
         }
         let (a0, a1) = self.azimuth_span_deg;
-        span(a0, a1, 89.9, Param::AzimuthSpan)?;
+        span(a0, a1, SPAN_LIMIT_DEG, Param::AzimuthSpan)?;
         let (e0, e1) = self.elevation_span_deg;
-        span(e0, e1, 89.9, Param::ElevationSpan)?;
+        span(e0, e1, SPAN_LIMIT_DEG, Param::ElevationSpan)?;
         let c = &self.cfar;
         finite(f64::from(c.quantile), Param::CfarQuantile)?;
         if !(c.quantile > 0.0 && c.quantile <= 1.0) {
@@ -545,7 +545,7 @@ impl fmt::Display for ConfigError {
 
 impl core::error::Error for ConfigError {}
 
-fn finite(v: f64, p: Param) -> Result<(), ConfigError> {
+pub(crate) fn finite(v: f64, p: Param) -> Result<(), ConfigError> {
     if v.is_finite() {
         Ok(())
     } else {
@@ -562,7 +562,8 @@ fn positive(v: f64, p: Param) -> Result<(), ConfigError> {
     }
 }
 
-fn span(a: f32, b: f32, limit: f32, p: Param) -> Result<(), ConfigError> {
+/// An angle span `a < b` inside `±limit` degrees.
+pub(crate) fn span(a: f32, b: f32, limit: f32, p: Param) -> Result<(), ConfigError> {
     finite(f64::from(a), p)?;
     finite(f64::from(b), p)?;
     if a < b && a >= -limit && b <= limit {
@@ -570,4 +571,31 @@ fn span(a: f32, b: f32, limit: f32, p: Param) -> Result<(), ConfigError> {
     } else {
         Err(ConfigError::OutOfRange(p))
     }
+}
+
+/// Largest angle magnitude of a grid span, degrees.
+pub(crate) const SPAN_LIMIT_DEG: f32 = 89.9;
+
+/// `sin` of `L` angles evenly spaced over `span` degrees (both ends included, as linspace):
+/// the direction cosines of an angle grid. Both chains build their grids with it, so their
+/// bins are identical.
+pub(crate) fn sine_grid<const L: usize>(span: (f32, f32)) -> [f32; L] {
+    let mut g = [0.0f32; L];
+    let (a, b) = (f64::from(span.0), f64::from(span.1));
+    let step = if L > 1 { (b - a) / (L - 1) as f64 } else { 0.0 };
+    for (i, v) in g.iter_mut().enumerate() {
+        *v = libm::sin((a + step * i as f64).to_radians()) as f32;
+    }
+    g
+}
+
+/// `sin` of the angle at fractional index `x` of a `len`-point linspace over `span` degrees
+/// (sub-grid refinement between the bins of [`sine_grid`]).
+pub(crate) fn sine_at(span: (f32, f32), len: usize, x: f32) -> f32 {
+    let step = if len > 1 {
+        (span.1 - span.0) / (len - 1) as f32
+    } else {
+        0.0
+    };
+    libm::sinf((span.0 + step * x).to_radians())
 }

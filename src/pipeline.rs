@@ -18,15 +18,17 @@ use num_complex::Complex32;
 use crate::capon::Capon;
 use crate::cfar::{self, Detection, Detections, MAX_TRAINING_CELLS};
 use crate::config::{
-    AntennaGeometry, ArrayLayout, ConfigError, Param, Params, Waveform, MAX_ELEVATION_PEAKS,
+    sine_at, sine_grid, AntennaGeometry, ArrayLayout, ConfigError, Param, Params, Waveform,
+    MAX_ELEVATION_PEAKS,
 };
 use crate::covariance::{
     covariance, forward_backward, leading_block, load_diagonal, rotate_rows, zero, Matrix,
 };
 use crate::cube::{ChirpId, Cube, FrameError, Snapshots};
 use crate::doppler::doppler_peak;
-use crate::points::{Point, PointCloud};
+use crate::points::{ratio_db, Point, PointCloud};
 use crate::range::RangeFft;
+use crate::refine::parabolic_offset;
 
 const ZERO: Complex32 = Complex32::new(0.0, 0.0);
 const ONE: Complex32 = Complex32::new(1.0, 0.0);
@@ -442,8 +444,9 @@ impl<
                 .copied()
                 .unwrap_or(0.0)
         };
-        let range_frac = offset(at(b.checked_sub(1), i), at(Some(b), i), at(Some(b + 1), i));
-        let mut az_frac = offset(
+        let range_frac =
+            parabolic_offset(at(b.checked_sub(1), i), at(Some(b), i), at(Some(b + 1), i));
+        let mut az_frac = parabolic_offset(
             at(Some(b), i.wrapping_sub(1)),
             at(Some(b), i),
             at(Some(b), i + 1),
@@ -470,7 +473,7 @@ impl<
                     Some(s) => az.power(&azimuth_part::<M, AZ>(s)),
                     None => 0.0,
                 };
-                az_frac = offset(power(i.wrapping_sub(1)), power(i), power(i + 1));
+                az_frac = parabolic_offset(power(i.wrapping_sub(1)), power(i), power(i + 1));
             }
         }
 
@@ -493,7 +496,7 @@ impl<
         let subgrid = self.params.subgrid;
         let (mu, range) = if subgrid {
             (
-                grid_sine(self.params.azimuth_span_deg, NAZ, i as f32 + az_frac),
+                sine_at(self.params.azimuth_span_deg, NAZ, i as f32 + az_frac),
                 (b as f32 + range_frac) * self.range_bin_m,
             )
         } else {
@@ -502,8 +505,8 @@ impl<
         let snr_db = ratio_db(det.power, det.level);
         for &(j, power) in peaks.iter().flatten() {
             let nu = if subgrid {
-                let frac = offset(spectrum[j - 1], spectrum[j], spectrum[j + 1]);
-                grid_sine(self.params.elevation_span_deg, NEL, j as f32 + frac)
+                let frac = parabolic_offset(spectrum[j - 1], spectrum[j], spectrum[j + 1]);
+                sine_at(self.params.elevation_span_deg, NEL, j as f32 + frac)
             } else {
                 self.el_nu[j]
             };
@@ -615,39 +618,4 @@ fn strongest_interior_peaks<const L: usize>(
         }
     }
     best
-}
-
-/// Sub-grid offset of a peak from its neighbours' powers (see [`crate::refine`]).
-fn offset(left: f32, centre: f32, right: f32) -> f32 {
-    crate::refine::parabolic_offset(left, centre, right)
-}
-
-/// `sin` of the angle at fractional index `x` of an `len`-point linspace over `span` degrees.
-fn grid_sine(span: (f32, f32), len: usize, x: f32) -> f32 {
-    let step = if len > 1 {
-        (span.1 - span.0) / (len - 1) as f32
-    } else {
-        0.0
-    };
-    libm::sinf((span.0 + step * x).to_radians())
-}
-
-/// `10·log10(a / b)`, finite for positive inputs.
-fn ratio_db(a: f32, b: f32) -> f32 {
-    if a > 0.0 && b > 0.0 {
-        10.0 * libm::log10f(a / b)
-    } else {
-        0.0
-    }
-}
-
-/// `sin` of `L` angles evenly spaced over `span` degrees (both ends included, as linspace).
-fn sine_grid<const L: usize>(span: (f32, f32)) -> [f32; L] {
-    let mut g = [0.0f32; L];
-    let (a, b) = (f64::from(span.0), f64::from(span.1));
-    let step = if L > 1 { (b - a) / (L - 1) as f64 } else { 0.0 };
-    for (i, v) in g.iter_mut().enumerate() {
-        *v = libm::sin((a + step * i as f64).to_radians()) as f32;
-    }
-    g
 }

@@ -102,3 +102,12 @@ impl<const P: usize> Default for PointCloud<P> {
         Self::new()
     }
 }
+
+/// `10·log10(a / b)`, the SNR of a point; 0 unless both are positive.
+pub(crate) fn ratio_db(a: f32, b: f32) -> f32 {
+    if a > 0.0 && b > 0.0 {
+        10.0 * libm::log10f(a / b)
+    } else {
+        0.0
+    }
+}

@@ -93,10 +93,13 @@ use num_complex::Complex32;
 pub use rd_cfar::{CfarKind, RdCfarParams, RdDetection, RdDetections};
 
 use crate::cfar::MAX_TRAINING_CELLS;
-use crate::config::{AntennaGeometry, ArrayLayout, ConfigError, Param, Params, Waveform};
+use crate::config::{
+    finite, sine_at, sine_grid, span, AntennaGeometry, ArrayLayout, ConfigError, Param, Params,
+    Waveform, SPAN_LIMIT_DEG,
+};
 use crate::cube::{ChirpId, Cube, FrameError, Snapshots};
 use crate::fft::fft_in_place;
-use crate::points::{Point, PointCloud};
+use crate::points::{ratio_db, Point, PointCloud};
 use crate::range::RangeFft;
 use crate::refine::parabolic_offset;
 use crate::window::WindowKind;
@@ -156,17 +159,17 @@ impl FftParams {
             return Err(ConfigError::OutOfRange(Param::RangeWindow));
         }
         let (a0, a1) = self.azimuth_span_deg;
-        span(a0, a1, Param::AzimuthSpan)?;
+        span(a0, a1, SPAN_LIMIT_DEG, Param::AzimuthSpan)?;
         let (e0, e1) = self.elevation_span_deg;
-        span(e0, e1, Param::ElevationSpan)?;
+        span(e0, e1, SPAN_LIMIT_DEG, Param::ElevationSpan)?;
         let c = &self.cfar;
         if let CfarKind::OrderStatistic { quantile } = c.kind {
-            finite(quantile, Param::CfarQuantile)?;
+            finite(f64::from(quantile), Param::CfarQuantile)?;
             if !(quantile > 0.0 && quantile <= 1.0) {
                 return Err(ConfigError::OutOfRange(Param::CfarQuantile));
             }
         }
-        finite(c.threshold_db, Param::CfarThreshold)?;
+        finite(f64::from(c.threshold_db), Param::CfarThreshold)?;
         let doppler_extent = 2 * (usize::from(c.guard_doppler) + usize::from(c.train_doppler)) + 1;
         if (c.train_range == 0 && c.train_doppler == 0)
             || doppler_extent > loops
@@ -579,9 +582,7 @@ impl<
                 best.1,
                 beam_power(&self.az_beam[i + 1]),
             );
-            let (a0, a1) = self.params.azimuth_span_deg;
-            let step = (a1 - a0) / (NAZ - 1) as f32;
-            mu = libm::sinf((a0 + step * (i as f32 + frac)).to_radians());
+            mu = sine_at(self.params.azimuth_span_deg, NAZ, i as f32 + frac);
         }
 
         // Elevation: phase of the pair products (line element × conj(elevation element)).
@@ -621,45 +622,5 @@ impl<
         let j = libm::roundf((theta - e0) / step);
         // `as` saturates (NaN → 0); the clamp keeps the index on the grid.
         (j.max(0.0) as usize).min(NEL - 1) as u16
-    }
-}
-
-/// `10·log10(a / b)`, finite for positive inputs.
-fn ratio_db(a: f32, b: f32) -> f32 {
-    if a > 0.0 && b > 0.0 {
-        10.0 * libm::log10f(a / b)
-    } else {
-        0.0
-    }
-}
-
-/// `sin` of `L` angles evenly spaced over `span` degrees (both ends included, as linspace);
-/// the same computation as the DBE chain's grid, so both produce identical `f32` values.
-fn sine_grid<const L: usize>(span: (f32, f32)) -> [f32; L] {
-    let mut g = [0.0f32; L];
-    let (a, b) = (f64::from(span.0), f64::from(span.1));
-    let step = if L > 1 { (b - a) / (L - 1) as f64 } else { 0.0 };
-    for (i, v) in g.iter_mut().enumerate() {
-        *v = libm::sin((a + step * i as f64).to_radians()) as f32;
-    }
-    g
-}
-
-fn finite(v: f32, p: Param) -> Result<(), ConfigError> {
-    if v.is_finite() {
-        Ok(())
-    } else {
-        Err(ConfigError::NotFinite(p))
-    }
-}
-
-/// An angle span `a < b` inside ±89.9° (as the DBE chain's).
-fn span(a: f32, b: f32, p: Param) -> Result<(), ConfigError> {
-    finite(a, p)?;
-    finite(b, p)?;
-    if a < b && a >= -89.9 && b <= 89.9 {
-        Ok(())
-    } else {
-        Err(ConfigError::OutOfRange(p))
     }
 }

@@ -14,7 +14,7 @@
 //! `(range, natural Doppler index)`, so a plateau gives one detection). Only local maxima are
 //! tested, which gives the same detections as testing every cell at a fraction of the cost.
 
-use crate::cfar::MAX_TRAINING_CELLS;
+use crate::cfar::{ceil_index, MAX_TRAINING_CELLS};
 use crate::doppler::signed_bin;
 
 /// Which noise-level estimator the CFAR uses.
@@ -242,13 +242,6 @@ pub fn detect<const N: usize, const K: usize, const DET: usize>(
             }
         }
     }
-}
-
-/// Zero-based index of the `⌈q·n⌉`-th smallest of `n ≥ 1` values, clamped to `0..n`.
-fn ceil_index(q: f32, n: usize) -> usize {
-    let k = libm::ceilf(q * n as f32);
-    let k = if k.is_finite() { k as usize } else { n };
-    k.clamp(1, n) - 1
 }
 
 /// `map[b][d]` is the maximum of its 3×3 neighbourhood (rows `first..=last`, Doppler wrapped);
