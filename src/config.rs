@@ -1,12 +1,14 @@
-//! Runtime configuration: waveform, antenna geometry and processing parameters.
+//! The sensor's runtime description (waveform, antenna geometry, the cube row order derived
+//! from it) and the one error type of configuration.
 //!
-//! Values live at runtime, shapes live in types: the array sizes are the const generics of
-//! [`crate::Dbe`], everything else is validated once by [`crate::Dbe::new`] into a typed
-//! [`ConfigError`] that names the offending parameter. After that the hot path is infallible.
+//! Values live at runtime, shapes live in types: the array sizes are const generics, every
+//! value is validated once (by [`crate::Frontend::new`] and the chains' `configure`) into a
+//! typed [`ConfigError`] that names the offending parameter. After that the hot path is
+//! infallible. Each stage's parameters live with the stage ([`crate::cfar::CfarParams`],
+//! [`crate::elevation::ElevationParams`], the chains' [`crate::Params`] and
+//! [`crate::FftParams`]).
 
 use core::fmt;
-
-use crate::window::WindowKind;
 
 /// Speed of light in vacuum, m/s.
 pub const SPEED_OF_LIGHT: f64 = 299_792_458.0;
@@ -45,6 +47,15 @@ impl Waveform {
         start_frequency_hz: 60.25e9,
         idle_time_s: 10.0e-6,
         ramp_end_time_s: 60.0e-6,
+    };
+
+    /// Every field zero: the waveform of an unconfigured frontend (all-zero bytes).
+    pub(crate) const ZEROED: Self = Self {
+        adc_sample_rate_hz: 0.0,
+        slope_hz_per_s: 0.0,
+        start_frequency_hz: 0.0,
+        idle_time_s: 0.0,
+        ramp_end_time_s: 0.0,
     };
 
     /// Chirp period `Tc = idle + ramp_end`, s: the time between two TX slots.
@@ -212,225 +223,6 @@ fn key_less(a: (f32, f32, u8, u8), b: (f32, f32, u8, u8)) -> bool {
     (a.1, a.0) < (b.1, b.0)
 }
 
-/// 2-D OS-CFAR parameters on the range–azimuth map (linear power).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CfarParams {
-    /// Guard half-width along range, bins (excluded from training).
-    pub guard_range: u8,
-    /// Guard half-width along azimuth, bins.
-    pub guard_azimuth: u8,
-    /// Training half-width along range beyond the guard, bins.
-    pub train_range: u8,
-    /// Training half-width along azimuth beyond the guard, bins.
-    pub train_azimuth: u8,
-    /// Order-statistic quantile q: the noise level is the `⌈q·n⌉`-th smallest training value.
-    pub quantile: f32,
-    /// Threshold factor α over the noise level, dB (`threshold = α · level`).
-    pub threshold_db: f32,
-    /// Azimuth bins skipped at each edge of the grid (no detection there).
-    pub edge_skip_azimuth: u8,
-}
-
-impl CfarParams {
-    /// Guard 2 × 4, training 4 × 8 beyond the guard, q = 0.75 (spec §3), α = 8 dB, 4 edge
-    /// bins skipped (spec §3).
-    ///
-    /// α = 8 dB comes from the evaluation (`docs/eval/report.md`, "Defaults"): the noise-only
-    /// Capon map is very flat (K = 128 snapshots), so noise-only frames give no false point at
-    /// any α down to 3 dB, while α = 12 dB leaves weak surfaces undetected (1.5 points per frame
-    /// on the extended scenes against the FFT chain's 17.7). 8 dB cuts the DBE chain's Chamfer
-    /// distance by 32 % at 0.01 false points per scene frame; 6 dB would cut it by 45 % at 0.07,
-    /// and the margin is kept for the clutter and multipath the simulator does not model.
-    pub const DEFAULT: Self = Self {
-        guard_range: 2,
-        guard_azimuth: 4,
-        train_range: 4,
-        train_azimuth: 8,
-        quantile: 0.75,
-        threshold_db: 8.0,
-        edge_skip_azimuth: 4,
-    };
-
-    /// Training cells of a full (untruncated) window.
-    pub const fn full_training_cells(&self) -> usize {
-        let outer_r = 2 * (self.guard_range as usize + self.train_range as usize) + 1;
-        let outer_a = 2 * (self.guard_azimuth as usize + self.train_azimuth as usize) + 1;
-        let inner_r = 2 * self.guard_range as usize + 1;
-        let inner_a = 2 * self.guard_azimuth as usize + 1;
-        outer_r * outer_a - inner_r * inner_a
-    }
-}
-
-impl Default for CfarParams {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
-
-/// The most elevation peaks a detection may keep (bounds a stack buffer).
-pub const MAX_ELEVATION_PEAKS: usize = 4;
-
-/// Rules for keeping elevation-spectrum peaks.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ElevationParams {
-    /// Peaks kept per detection, at most (interior local maxima only).
-    pub max_peaks: u8,
-    /// A peak is kept only within this many dB of the strongest peak.
-    pub peak_range_db: f32,
-}
-
-impl ElevationParams {
-    /// At most 2 peaks within 6 dB of the strongest (spec §3).
-    pub const DEFAULT: Self = Self {
-        max_peaks: 2,
-        peak_range_db: 6.0,
-    };
-}
-
-impl Default for ElevationParams {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
-
-/// Processing parameters of the DBE chain (defaults of spec §3).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Params {
-    /// First range bin processed (inclusive).
-    pub range_first: u16,
-    /// Last range bin processed (inclusive); at most `N − 1`.
-    pub range_last: u16,
-    /// Range window applied before the range FFT.
-    pub range_window: WindowKind,
-    /// Slow-time window applied before the Doppler FFT.
-    pub doppler_window: WindowKind,
-    /// Diagonal loading factor γ: `δ = γ · tr(R) / M`.
-    pub loading: f32,
-    /// Forward–backward averaging of the azimuth covariance.
-    pub forward_backward: bool,
-    /// TDM-MIMO motion compensation before elevation and Doppler.
-    pub tdm_compensation: bool,
-    /// With TDM compensation: how far (azimuth bins) the detection's azimuth may move to the
-    /// peak of the compensated spectrum. The uncompensated slot step between the two halves
-    /// of a 3-TX azimuth line shifts the peak by up to ~5° at the unambiguous velocity limit;
-    /// 8 bins (6° on the default grid) covers it without reaching a neighbouring target.
-    pub tdm_azimuth_search: u8,
-    /// Sub-grid refinement of range, azimuth, elevation and Doppler (see [`crate::refine`]):
-    /// points get continuous coordinates instead of grid values; bin indices are unchanged.
-    pub subgrid: bool,
-    /// Azimuth grid: first and last angle, degrees (the grid size is a const generic).
-    pub azimuth_span_deg: (f32, f32),
-    /// Elevation grid: first and last angle, degrees.
-    pub elevation_span_deg: (f32, f32),
-    /// Detection parameters.
-    pub cfar: CfarParams,
-    /// Elevation peak rules.
-    pub elevation: ElevationParams,
-}
-
-impl Params {
-    /// Defaults for `samples` samples per chirp: range bins `12 ..= N − 3`, Blackman range
-    /// window, Hann Doppler window, γ = 0.01, FB averaging and TDM compensation on, azimuth
-    /// ±70° (the paper's Table I), elevation ±25°.
-    ///
-    /// The last kept bin is `N − 3`, not the spec's `N − 2`: the spectrum of a Blackman window
-    /// spans bins 0, ±1, ±2 (coefficients 0.42, 0.25, 0.04), so whatever sits at DC before the
-    /// window — the ADC's offset, and what DC removal takes out of every off-bin target —
-    /// lands in bins `N − 2` and `N − 1` (negative frequencies wrap with complex sampling).
-    /// Bin `N − 2` carries −52…−60 dB of every target (measured for targets at bins 13.6 to
-    /// 48.5), so a target 60 dB above the noise leaves a ghost there; bin `N − 3` is below
-    /// −78 dB. Bins `0..12` are excluded for the same reason and for TX–RX coupling.
-    pub const fn defaults(samples: usize) -> Self {
-        let last = samples.saturating_sub(3);
-        Self {
-            range_first: 12,
-            range_last: last as u16,
-            range_window: WindowKind::Blackman,
-            doppler_window: WindowKind::Hann,
-            loading: 0.01,
-            forward_backward: true,
-            tdm_compensation: true,
-            tdm_azimuth_search: 8,
-            subgrid: false,
-            azimuth_span_deg: (-70.0, 70.0),
-            elevation_span_deg: (-25.0, 25.0),
-            cfar: CfarParams::DEFAULT,
-            elevation: ElevationParams::DEFAULT,
-        }
-    }
-
-    /// Every field zero (`false`, `Rectangular`): the parameters of an unconfigured chain,
-    /// whose `static` must be all-zero bytes to live in `.bss`.
-    pub(crate) const fn zeroed() -> Self {
-        Self {
-            range_first: 0,
-            range_last: 0,
-            range_window: WindowKind::Rectangular,
-            doppler_window: WindowKind::Rectangular,
-            loading: 0.0,
-            forward_backward: false,
-            tdm_compensation: false,
-            tdm_azimuth_search: 0,
-            subgrid: false,
-            azimuth_span_deg: (0.0, 0.0),
-            elevation_span_deg: (0.0, 0.0),
-            cfar: CfarParams {
-                guard_range: 0,
-                guard_azimuth: 0,
-                train_range: 0,
-                train_azimuth: 0,
-                quantile: 0.0,
-                threshold_db: 0.0,
-                edge_skip_azimuth: 0,
-            },
-            elevation: ElevationParams {
-                max_peaks: 0,
-                peak_range_db: 0.0,
-            },
-        }
-    }
-
-    pub(crate) fn validate(&self, samples: usize, az_bins: usize) -> Result<(), ConfigError> {
-        if self.range_first > self.range_last || usize::from(self.range_last) >= samples {
-            return Err(ConfigError::OutOfRange(Param::RangeWindow));
-        }
-        finite(f64::from(self.loading), Param::Loading)?;
-        if !(self.loading > 0.0) {
-            return Err(ConfigError::OutOfRange(Param::Loading));
-        }
-        let (a0, a1) = self.azimuth_span_deg;
-        span(a0, a1, SPAN_LIMIT_DEG, Param::AzimuthSpan)?;
-        let (e0, e1) = self.elevation_span_deg;
-        span(e0, e1, SPAN_LIMIT_DEG, Param::ElevationSpan)?;
-        let c = &self.cfar;
-        finite(f64::from(c.quantile), Param::CfarQuantile)?;
-        if !(c.quantile > 0.0 && c.quantile <= 1.0) {
-            return Err(ConfigError::OutOfRange(Param::CfarQuantile));
-        }
-        finite(f64::from(c.threshold_db), Param::CfarThreshold)?;
-        if c.train_range == 0 && c.train_azimuth == 0 {
-            return Err(ConfigError::OutOfRange(Param::CfarWindow));
-        }
-        if c.full_training_cells() > crate::cfar::MAX_TRAINING_CELLS {
-            return Err(ConfigError::OutOfRange(Param::CfarWindow));
-        }
-        if 2 * usize::from(c.edge_skip_azimuth) + 1 > az_bins {
-            return Err(ConfigError::OutOfRange(Param::CfarEdgeSkip));
-        }
-        finite(
-            f64::from(self.elevation.peak_range_db),
-            Param::ElevationPeakRange,
-        )?;
-        if self.elevation.max_peaks == 0
-            || usize::from(self.elevation.max_peaks) > MAX_ELEVATION_PEAKS
-            || self.elevation.peak_range_db < 0.0
-        {
-            return Err(ConfigError::OutOfRange(Param::ElevationPeakRange));
-        }
-        Ok(())
-    }
-}
-
 /// A configuration parameter, named in [`ConfigError`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Param {
@@ -450,19 +242,21 @@ pub enum Param {
     DesignFrequency,
     /// `Params::range_first` / `range_last`.
     RangeWindow,
+    /// `Params::range_window`: it must be the frontend's.
+    RangeWindowKind,
     /// `Params::loading`.
     Loading,
     /// `Params::azimuth_span_deg`.
     AzimuthSpan,
     /// `Params::elevation_span_deg`.
     ElevationSpan,
-    /// `CfarParams::quantile`.
+    /// `CfarKind::OrderStatistic::quantile`.
     CfarQuantile,
     /// `CfarParams::threshold_db`.
     CfarThreshold,
     /// `CfarParams` guard / training sizes.
     CfarWindow,
-    /// `CfarParams::edge_skip_azimuth`.
+    /// `CfarParams::edge_skip`.
     CfarEdgeSkip,
     /// `ElevationParams`.
     ElevationPeakRange,
@@ -484,6 +278,7 @@ impl Param {
             Param::AntennaPosition => "antenna position",
             Param::DesignFrequency => "F_design",
             Param::RangeWindow => "range window (range_first..=range_last)",
+            Param::RangeWindowKind => "range window kind (must be the frontend's)",
             Param::Loading => "diagonal loading γ",
             Param::AzimuthSpan => "azimuth span",
             Param::ElevationSpan => "elevation span",
@@ -518,6 +313,8 @@ pub enum ConfigError {
     AzimuthNotUniform,
     /// The elements off the azimuth line do not share one elevation.
     ElevationRowNotFlat,
+    /// A chain was configured from a frontend that was never configured.
+    FrontendUnconfigured,
 }
 
 impl fmt::Display for ConfigError {
@@ -539,6 +336,9 @@ impl fmt::Display for ConfigError {
                 f,
                 "antenna geometry: the elements off the azimuth line are not on one elevation row"
             ),
+            ConfigError::FrontendUnconfigured => {
+                write!(f, "the frontend was not configured before the chain")
+            }
         }
     }
 }
@@ -553,7 +353,7 @@ pub(crate) fn finite(v: f64, p: Param) -> Result<(), ConfigError> {
     }
 }
 
-fn positive(v: f64, p: Param) -> Result<(), ConfigError> {
+pub(crate) fn positive(v: f64, p: Param) -> Result<(), ConfigError> {
     finite(v, p)?;
     if v > 0.0 {
         Ok(())

@@ -11,8 +11,11 @@
 //! most half a mantissa step, 2^(e−1), i.e. below 2⁻¹⁵ of the chirp's strongest bin per
 //! component: 90 dB of dynamic range per chirp, against the ~75 dB between an int16 ADC's
 //! full scale and its noise after the range FFT. This halves the cube against `Complex32`
-//! (the AWR1843 itself stores its cube as complex i16). [`Cube::snapshots`] turns one range
-//! bin back into `f32` for the processing stages.
+//! (the AWR1843 itself stores its cube as complex i16).
+//!
+//! A cube is filled by [`crate::Frontend::push_chirp`]; when all `K · TX` chirps have arrived
+//! in order, [`crate::Frontend::frame`] turns it into a [`Frame`], the checked input of both
+//! chains, whose [`Frame::snapshots`] turns one range bin back into `f32`.
 
 use core::fmt;
 
@@ -22,13 +25,13 @@ use num_complex::Complex32;
 pub type CubeSample = [i16; 2];
 
 /// One range bin's snapshots in `f32`: `M` rows × `K` loops (the bin in flight).
-pub type Snapshots<const M: usize, const K: usize> = [[Complex32; K]; M];
+pub type Snapshots<const K: usize, const M: usize> = [[Complex32; K]; M];
 
 /// Storage of a whole cube: `N` range bins of `M × K` mantissas.
-pub type CubeStorage<const N: usize, const M: usize, const K: usize> = [[[CubeSample; K]; M]; N];
+pub type CubeStorage<const N: usize, const K: usize, const M: usize> = [[[CubeSample; K]; M]; N];
 
 /// Zeroed cube storage, for `static` initialisation on firmware.
-pub const fn zero_storage<const N: usize, const M: usize, const K: usize>() -> CubeStorage<N, M, K>
+pub const fn zero_storage<const N: usize, const K: usize, const M: usize>() -> CubeStorage<N, K, M>
 {
     [[[[0; 2]; K]; M]; N]
 }
@@ -90,17 +93,17 @@ impl core::error::Error for FrameError {}
 
 /// A radar cube being filled chirp by chirp.
 #[derive(Debug)]
-pub struct Cube<'a, const N: usize, const M: usize, const K: usize> {
-    bins: &'a mut CubeStorage<N, M, K>,
+pub struct Cube<'a, const N: usize, const K: usize, const M: usize> {
+    bins: &'a mut CubeStorage<N, K, M>,
     /// Block exponent of each chirp: `exponent[row][loop]`.
     exponent: [[i8; K]; M],
     received: u32,
     error: Option<FrameError>,
 }
 
-impl<'a, const N: usize, const M: usize, const K: usize> Cube<'a, N, M, K> {
+impl<'a, const N: usize, const K: usize, const M: usize> Cube<'a, N, K, M> {
     /// Wrap caller-owned storage; the cube starts empty, waiting for loop 0, slot 0.
-    pub fn new(bins: &'a mut CubeStorage<N, M, K>) -> Self {
+    pub fn new(bins: &'a mut CubeStorage<N, K, M>) -> Self {
         Self {
             bins,
             exponent: [[0; K]; M],
@@ -116,22 +119,8 @@ impl<'a, const N: usize, const M: usize, const K: usize> Cube<'a, N, M, K> {
     }
 
     /// The stored mantissas (see the module docs for their scale).
-    pub fn mantissas(&self) -> &CubeStorage<N, M, K> {
+    pub fn mantissas(&self) -> &CubeStorage<N, K, M> {
         self.bins
-    }
-
-    /// Range bin `b` as `f32` snapshots (all zero for `b ≥ N`).
-    pub fn snapshots(&self, b: usize, out: &mut Snapshots<M, K>) {
-        let Some(bin) = self.bins.get(b) else {
-            *out = [[Complex32::new(0.0, 0.0); K]; M];
-            return;
-        };
-        for ((o, row), exps) in out.iter_mut().zip(bin.iter()).zip(self.exponent.iter()) {
-            for ((v, m), &e) in o.iter_mut().zip(row.iter()).zip(exps.iter()) {
-                let scale = pow2(i32::from(e));
-                *v = Complex32::new(f32::from(m[0]) * scale, f32::from(m[1]) * scale);
-            }
-        }
     }
 
     /// Chirps received in order so far in this frame.
@@ -139,8 +128,8 @@ impl<'a, const N: usize, const M: usize, const K: usize> Cube<'a, N, M, K> {
         self.received
     }
 
-    /// `Ok` when all `K · tx` chirps arrived in order, else why not.
-    pub fn status(&self, tx: usize) -> Result<(), FrameError> {
+    /// The complete frame, when all `K · tx` chirps arrived in order, else why not.
+    pub(crate) fn frame(&self, tx: usize) -> Result<Frame<'_, N, K, M>, FrameError> {
         if let Some(e) = self.error {
             return Err(e);
         }
@@ -151,7 +140,10 @@ impl<'a, const N: usize, const M: usize, const K: usize> Cube<'a, N, M, K> {
                 expected,
             });
         }
-        Ok(())
+        Ok(Frame {
+            bins: self.bins,
+            exponent: &self.exponent,
+        })
     }
 
     /// Check `id` against the TDM order for `tx` slots; on success the caller writes the chirp
@@ -203,6 +195,31 @@ impl<'a, const N: usize, const M: usize, const K: usize> Cube<'a, N, M, K> {
     }
 }
 
+/// A complete, in-order frame: the checked input of both chains' `process` (which is then
+/// infallible). Made by [`crate::Frontend::frame`]; it borrows the cube, so the cube cannot
+/// change while a frame of it is processed.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame<'c, const N: usize, const K: usize, const M: usize> {
+    bins: &'c CubeStorage<N, K, M>,
+    exponent: &'c [[i8; K]; M],
+}
+
+impl<const N: usize, const K: usize, const M: usize> Frame<'_, N, K, M> {
+    /// Range bin `b` as `f32` snapshots (all zero for `b ≥ N`).
+    pub fn snapshots(&self, b: usize, out: &mut Snapshots<K, M>) {
+        let Some(bin) = self.bins.get(b) else {
+            *out = [[Complex32::new(0.0, 0.0); K]; M];
+            return;
+        };
+        for ((o, row), exps) in out.iter_mut().zip(bin.iter()).zip(self.exponent.iter()) {
+            for ((v, m), &e) in o.iter_mut().zip(row.iter()).zip(exps.iter()) {
+                let scale = pow2(i32::from(e));
+                *v = Complex32::new(f32::from(m[0]) * scale, f32::from(m[1]) * scale);
+            }
+        }
+    }
+}
+
 /// Block exponents stay within ±125, so `2^e` and `2^−e` are normal `f32` values.
 const EXPONENT_LIMIT: i32 = 125;
 
@@ -241,6 +258,7 @@ mod tests {
     fn block_exponent_fits_the_peak_and_keeps_15_bits() {
         let mut storage = [[[[0i16; 2]; 1]; 1]; 8];
         let mut cube = Cube::<8, 1, 1>::new(&mut storage);
+        cube.received = 1;
         for peak in [0.3f32, 1.0, 32767.0, 32768.0, 123_456.7, 6.0e6] {
             let mut spectrum = [Complex32::new(0.0, 0.0); 8];
             spectrum[3] = Complex32::new(-peak, peak / 3.0);
@@ -250,8 +268,11 @@ mod tests {
             // The largest component uses the top bit: |m| in (16383, 32767].
             assert!(m.unsigned_abs() > 16383, "peak {peak}: mantissa {m}");
             let mut out = [[Complex32::new(0.0, 0.0); 1]; 1];
+            let frame = cube
+                .frame(1)
+                .expect("one chirp of one slot is a whole frame");
             for (b, v) in spectrum.iter().enumerate() {
-                cube.snapshots(b, &mut out);
+                frame.snapshots(b, &mut out);
                 let step = peak / 16384.0;
                 assert!((out[0][0] - v).norm() <= step, "peak {peak}, bin {b}");
             }

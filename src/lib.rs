@@ -5,19 +5,23 @@
 //! 3 TX × 4 RX (8 azimuth + 4 elevation virtual antennas), as an allocation-free `no_std`
 //! library fed chirp by chirp:
 //!
-//! range FFT ([`range`]) → Capon azimuth beamforming ([`capon`]) → OS-CFAR on the
-//! range–azimuth map ([`cfar`]) → TDM-MIMO motion compensation → Capon elevation sweep →
-//! Doppler FFT of the Capon-beamformed slow time ([`doppler`]) → points ([`points`]).
-//! [`pipeline`] shows the data flow on one screen.
+//! range FFT ([`range`], in the [`frontend`]) → Capon azimuth beamforming ([`capon`]) →
+//! OS-CFAR on the range–azimuth map ([`cfar`]) → TDM-MIMO motion compensation ([`tdm`]) →
+//! Capon elevation sweep ([`elevation`]) → Doppler FFT of the Capon-beamformed slow time
+//! ([`doppler`]) → points ([`points`]). [`pipeline`] shows the data flow on one screen;
+//! [`fft_pipeline`] is the classic FFT chain it is compared against. Both are a [`Chain`].
 //!
 //! Shapes are const generics (see [`presets`]); waveform, geometry and thresholds are
-//! runtime values validated once by [`Dbe::new`]. Processing never allocates and never
-//! panics; a bad frame is a [`FrameError`].
+//! runtime values validated once by [`Frontend::new`] and the chains' `configure`. A frame is
+//! checked once ([`Frontend::frame`]: a [`FrameError`] names the chirp that was missing,
+//! repeated or out of order); processing a [`Frame`] never allocates, never fails and never
+//! panics.
 //!
 //! ```
-//! use dbe_radar::{presets::coloradar as p, ChirpId};
+//! use dbe_radar::{presets::coloradar as p, Chain, ChirpId};
 //!
-//! let dbe = p::dbe().unwrap();
+//! let frontend = p::frontend().unwrap();
+//! let dbe = p::dbe(&frontend).unwrap();
 //! let mut storage: Box<p::CubeStorage> =
 //!     vec![[[[0; 2]; p::LOOPS]; p::VIRTUAL]; p::SAMPLES].try_into().unwrap();
 //! let mut cube = p::Cube::new(&mut storage);
@@ -26,10 +30,10 @@
 //! let silence: p::Chirp = [[[0, 0]; p::SAMPLES]; p::RX];
 //! for k in 0..p::LOOPS as u16 {
 //!     for t in 0..p::TX as u8 {
-//!         dbe.push_chirp(&mut cube, ChirpId { loop_index: k, tx_slot: t }, &silence).unwrap();
+//!         frontend.push_chirp(&mut cube, ChirpId { loop_index: k, tx_slot: t }, &silence).unwrap();
 //!     }
 //! }
-//! dbe.process(&cube, &mut work, &mut cloud).unwrap();
+//! dbe.process(&frontend.frame(&cube).unwrap(), &mut work, &mut cloud);
 //! // An all-zero frame has no positive-definite covariance: every bin is skipped, no points.
 //! assert_eq!(cloud.points().len(), 0);
 //! assert_eq!(cloud.stats.skipped_range_bins, 114);
@@ -43,22 +47,30 @@
 
 pub mod capon;
 pub mod cfar;
+pub mod chain;
 pub mod config;
 pub mod covariance;
 pub mod cube;
 pub mod doppler;
+pub mod elevation;
 pub mod fft;
 pub mod fft_pipeline;
+pub mod frontend;
 pub mod pipeline;
 pub mod points;
 pub mod presets;
 pub mod range;
 pub mod refine;
+pub mod tdm;
 pub mod window;
 
-pub use config::{AntennaGeometry, ConfigError, Params, Waveform};
-pub use cube::{ChirpId, Cube, FrameError};
+pub use cfar::{CfarKind, CfarParams, Detection};
+pub use chain::Chain;
+pub use config::{AntennaGeometry, ConfigError, Waveform};
+pub use cube::{ChirpId, Cube, Frame, FrameError};
+pub use elevation::ElevationParams;
 pub use fft_pipeline::{FftChain, FftParams, FftWorkspace};
+pub use frontend::Frontend;
 pub use num_complex::Complex32;
-pub use pipeline::{Dbe, Workspace};
+pub use pipeline::{Dbe, Params, Workspace};
 pub use points::{FrameStats, Point, PointCloud};

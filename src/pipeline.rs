@@ -1,58 +1,170 @@
-//! The DBE chain end to end (spec §3): ingestion → azimuth Capon → OS-CFAR → TDM compensation
-//! → elevation Capon → Capon-weighted Doppler → points.
+//! The DBE chain (spec §3), stage by stage.
 //!
 //! ```text
-//! per chirp  push_chirp : DC removal, window, range FFT ──▶ Cube[bin][row][loop]
-//! per frame  process    : for each kept range bin b (dequantised into the f32 block)
-//!                            R_b = X·Xᴴ/K of the AZ azimuth rows
-//!                            RA[b][i] = Capon power of R_b (FB, loading)
-//!                         OS-CFAR on RA ──▶ detections (b, i)
-//!                         per detection bin: the full M×M R_b, once per distinct bin
-//!                         per detection: TDM-compensate R_b with the beam's Doppler,
-//!                            refine azimuth, sweep elevation Capon on R_b (no FB),
-//!                            per peak: Capon weight ──▶ slow time ──▶ Doppler FFT ──▶ Point
+//! Frontend::push_chirp : DC removal, window, range FFT ──▶ Cube[bin][row][loop]  (frontend.rs)
+//! Frontend::frame      : all chirps in order? ──▶ Frame
+//! Dbe::map             : per kept range bin b: R_b = X·Xᴴ/K of the AZ azimuth rows,
+//!                        FB averaging, loading ──▶ RA[b][i] = Capon power      (capon.rs)
+//! Dbe::detect          : OS-CFAR on RA, row floor δ_b/AZ ──▶ detections (b, i) (cfar.rs)
+//! Dbe::points          : per detection, the full M×M R_b once per distinct bin:
+//!                        compensate_tdm: Doppler of the azimuth beam, rotate R_b,
+//!                          climb to the compensated azimuth peak            (tdm.rs)
+//!                        elevation::sweep on R_b (no FB) ──▶ ≤ 2 peaks       (elevation.rs)
+//!                        per peak: Capon weight ──▶ slow time ──▶ Doppler FFT (doppler.rs)
+//!                          ──▶ Point::at(range, μ, ν)                         (points.rs)
 //! ```
 
 use num_complex::Complex32;
 
 use crate::capon::Capon;
-use crate::cfar::{self, Detection, Detections, MAX_TRAINING_CELLS};
+use crate::cfar::{self, CfarParams, Columns, Detection, Detections, MapShape, MAX_TRAINING_CELLS};
+use crate::chain::Chain;
 use crate::config::{
-    sine_at, sine_grid, AntennaGeometry, ArrayLayout, ConfigError, Param, Params, Waveform,
-    MAX_ELEVATION_PEAKS,
+    finite, sine_at, sine_grid, span, ArrayLayout, ConfigError, Param, SPAN_LIMIT_DEG,
 };
 use crate::covariance::{
     covariance, forward_backward, leading_block, load_diagonal, rotate_rows, zero, Matrix,
 };
-use crate::cube::{ChirpId, Cube, FrameError, Snapshots};
+use crate::cube::{Frame, Snapshots};
 use crate::doppler::doppler_peak;
-use crate::points::{ratio_db, Point, PointCloud};
-use crate::range::RangeFft;
+use crate::elevation::{self, ElevationParams};
+use crate::frontend::Frontend;
+use crate::points::{power_db, ratio_db, Point, PointCloud};
 use crate::refine::parabolic_offset;
+use crate::tdm;
+use crate::window::WindowKind;
 
 const ZERO: Complex32 = Complex32::new(0.0, 0.0);
 const ONE: Complex32 = Complex32::new(1.0, 0.0);
 
+/// Processing parameters of the DBE chain (defaults of spec §3).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Params {
+    /// First range bin processed (inclusive).
+    pub range_first: u16,
+    /// Last range bin processed (inclusive); at most `N − 1`.
+    pub range_last: u16,
+    /// Range window applied before the range FFT: the [`Frontend`]'s, which
+    /// [`Dbe::configure`] checks (the reference implementation and reports read it here).
+    pub range_window: WindowKind,
+    /// Slow-time window applied before the Doppler FFT.
+    pub doppler_window: WindowKind,
+    /// Diagonal loading factor γ: `δ = γ · tr(R) / M`.
+    pub loading: f32,
+    /// Forward–backward averaging of the azimuth covariance.
+    pub forward_backward: bool,
+    /// TDM-MIMO motion compensation before elevation and Doppler.
+    pub tdm_compensation: bool,
+    /// With TDM compensation: how far (azimuth bins) the detection's azimuth may move to the
+    /// peak of the compensated spectrum. The uncompensated slot step between the two halves
+    /// of a 3-TX azimuth line shifts the peak by up to ~5° at the unambiguous velocity limit;
+    /// 8 bins (6° on the default grid) covers it without reaching a neighbouring target.
+    pub tdm_azimuth_search: u8,
+    /// Sub-grid refinement of range, azimuth, elevation and Doppler (see [`crate::refine`]):
+    /// points get continuous coordinates instead of grid values; bin indices are unchanged.
+    pub subgrid: bool,
+    /// Azimuth grid: first and last angle, degrees (the grid size is a const generic).
+    pub azimuth_span_deg: (f32, f32),
+    /// Elevation grid: first and last angle, degrees.
+    pub elevation_span_deg: (f32, f32),
+    /// Detection parameters.
+    pub cfar: CfarParams,
+    /// Elevation peak rules.
+    pub elevation: ElevationParams,
+}
+
+impl Params {
+    /// Defaults for `samples` samples per chirp: range bins `12 ..= N − 3`, Blackman range
+    /// window, Hann Doppler window, γ = 0.01, FB averaging and TDM compensation on, azimuth
+    /// ±70° (the paper's Table I), elevation ±25°.
+    ///
+    /// The last kept bin is `N − 3`, not the spec's `N − 2`: the spectrum of a Blackman window
+    /// spans bins 0, ±1, ±2 (coefficients 0.42, 0.25, 0.04), so whatever sits at DC before the
+    /// window — the ADC's offset, and what DC removal takes out of every off-bin target —
+    /// lands in bins `N − 2` and `N − 1` (negative frequencies wrap with complex sampling).
+    /// Bin `N − 2` carries −52…−60 dB of every target (measured for targets at bins 13.6 to
+    /// 48.5), so a target 60 dB above the noise leaves a ghost there; bin `N − 3` is below
+    /// −78 dB. Bins `0..12` are excluded for the same reason and for TX–RX coupling.
+    pub const fn defaults(samples: usize) -> Self {
+        let last = samples.saturating_sub(3);
+        Self {
+            range_first: 12,
+            range_last: last as u16,
+            range_window: WindowKind::Blackman,
+            doppler_window: WindowKind::Hann,
+            loading: 0.01,
+            forward_backward: true,
+            tdm_compensation: true,
+            tdm_azimuth_search: 8,
+            subgrid: false,
+            azimuth_span_deg: (-70.0, 70.0),
+            elevation_span_deg: (-25.0, 25.0),
+            cfar: CfarParams::RANGE_AZIMUTH,
+            elevation: ElevationParams::DEFAULT,
+        }
+    }
+
+    /// Every field zero (`false`, `Rectangular`): the parameters of an unconfigured chain,
+    /// whose `static` must be all-zero bytes to live in `.bss`.
+    pub(crate) const fn zeroed() -> Self {
+        Self {
+            range_first: 0,
+            range_last: 0,
+            range_window: WindowKind::Rectangular,
+            doppler_window: WindowKind::Rectangular,
+            loading: 0.0,
+            forward_backward: false,
+            tdm_compensation: false,
+            tdm_azimuth_search: 0,
+            subgrid: false,
+            azimuth_span_deg: (0.0, 0.0),
+            elevation_span_deg: (0.0, 0.0),
+            cfar: CfarParams::ZEROED,
+            elevation: ElevationParams::ZEROED,
+        }
+    }
+
+    fn validate(&self, samples: usize, az_bins: usize, nel: usize) -> Result<(), ConfigError> {
+        if self.range_first > self.range_last || usize::from(self.range_last) >= samples {
+            return Err(ConfigError::OutOfRange(Param::RangeWindow));
+        }
+        finite(f64::from(self.loading), Param::Loading)?;
+        if !(self.loading > 0.0) {
+            return Err(ConfigError::OutOfRange(Param::Loading));
+        }
+        let (a0, a1) = self.azimuth_span_deg;
+        span(a0, a1, SPAN_LIMIT_DEG, Param::AzimuthSpan)?;
+        let (e0, e1) = self.elevation_span_deg;
+        span(e0, e1, SPAN_LIMIT_DEG, Param::ElevationSpan)?;
+        if az_bins < 3 || nel < 3 {
+            return Err(ConfigError::OutOfRange(Param::GridSize));
+        }
+        self.cfar.validate(az_bins, Columns::Truncated)?;
+        self.elevation.validate()
+    }
+}
+
 /// Mutable per-frame state besides the cube: the `f32` snapshots of the range bin in flight,
-/// the range–azimuth map, the CFAR scratch and the detection list. Construct it once (it is
-/// `const`), reuse it every frame.
+/// the range–azimuth map and its loading floor, the CFAR scratch and the detection list.
+/// Construct it once (it is `const`), reuse it every frame.
 #[derive(Clone, Debug)]
 pub struct Workspace<
     const N: usize,
-    const M: usize,
     const K: usize,
+    const M: usize,
     const NAZ: usize,
     const DET: usize,
 > {
-    block: Snapshots<M, K>,
+    block: Snapshots<K, M>,
     ra: [[f32; NAZ]; N],
     floor: [f32; N],
+    skipped_range_bins: u32,
     scratch: [f32; MAX_TRAINING_CELLS],
     detections: Detections<DET>,
 }
 
-impl<const N: usize, const M: usize, const K: usize, const NAZ: usize, const DET: usize>
-    Workspace<N, M, K, NAZ, DET>
+impl<const N: usize, const K: usize, const M: usize, const NAZ: usize, const DET: usize>
+    Workspace<N, K, M, NAZ, DET>
 {
     /// A zeroed workspace.
     pub const fn new() -> Self {
@@ -60,6 +172,7 @@ impl<const N: usize, const M: usize, const K: usize, const NAZ: usize, const DET
             block: [[ZERO; K]; M],
             ra: [[0.0; NAZ]; N],
             floor: [0.0; N],
+            skipped_range_bins: 0,
             scratch: [0.0; MAX_TRAINING_CELLS],
             detections: Detections::new(),
         }
@@ -71,14 +184,19 @@ impl<const N: usize, const M: usize, const K: usize, const NAZ: usize, const DET
         &self.ra
     }
 
-    /// The CFAR detections of the last frame.
+    /// The loading floor `δ_b / AZ` of each row of the range–azimuth map (see [`crate::cfar`]).
+    pub fn loading_floor(&self) -> &[f32; N] {
+        &self.floor
+    }
+
+    /// The CFAR detections of the last frame (`column` = azimuth bin).
     pub fn detections(&self) -> &[Detection] {
         self.detections.as_slice()
     }
 }
 
-impl<const N: usize, const M: usize, const K: usize, const NAZ: usize, const DET: usize> Default
-    for Workspace<N, M, K, NAZ, DET>
+impl<const N: usize, const K: usize, const M: usize, const NAZ: usize, const DET: usize> Default
+    for Workspace<N, K, M, NAZ, DET>
 {
     fn default() -> Self {
         Self::new()
@@ -88,9 +206,9 @@ impl<const N: usize, const M: usize, const K: usize, const NAZ: usize, const DET
 /// The configured DBE chain: parameters and precomputed tables (`&self` only, never mutated
 /// by processing).
 ///
-/// Const generics: `N` samples per chirp (= range bins), `K` loops per frame, `TX`, `RX`,
-/// `M = TX·RX` virtual antennas of which `AZ` form the azimuth line, `NAZ` azimuth and `NEL`
-/// elevation grid bins.
+/// Const generics (the crate's one order): `N` samples per chirp (= range bins), `K` loops
+/// per frame, `TX`, `RX`, `M = TX·RX` virtual antennas of which `AZ` form the azimuth line,
+/// `NAZ` azimuth and `NEL` elevation grid bins, `DET` detections per frame.
 #[derive(Clone, Debug)]
 pub struct Dbe<
     const N: usize,
@@ -101,15 +219,10 @@ pub struct Dbe<
     const AZ: usize,
     const NAZ: usize,
     const NEL: usize,
+    const DET: usize,
 > {
-    waveform: Waveform,
-    geometry: AntennaGeometry<TX, RX>,
     params: Params,
     layout: ArrayLayout<TX, RX, M>,
-    /// Coupling calibration per cube row (all zero, and unused, when `coupling_on` is false).
-    coupling: [[Complex32; N]; M],
-    coupling_on: bool,
-    range: RangeFft<N>,
     doppler_window: [f32; K],
     az_mu: [f32; NAZ],
     el_nu: [f32; NEL],
@@ -130,16 +243,16 @@ impl<
         const AZ: usize,
         const NAZ: usize,
         const NEL: usize,
-    > Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>
+        const DET: usize,
+    > Dbe<N, K, TX, RX, M, AZ, NAZ, NEL, DET>
 {
-    /// Validate the configuration and precompute windows and steering tables.
+    /// Validate `params` and precompute the tables for frames of `frontend`.
     pub fn new(
-        waveform: Waveform,
-        geometry: AntennaGeometry<TX, RX>,
+        frontend: &Frontend<N, K, TX, RX, M, AZ>,
         params: Params,
     ) -> Result<Self, ConfigError> {
         let mut dbe = Self::unconfigured();
-        dbe.configure(waveform, geometry, params)?;
+        dbe.configure(frontend, params)?;
         Ok(dbe)
     }
 
@@ -148,18 +261,6 @@ impl<
     /// use. Unconfigured, it never panics and produces no points.
     pub const fn unconfigured() -> Self {
         Self {
-            waveform: Waveform {
-                adc_sample_rate_hz: 0.0,
-                slope_hz_per_s: 0.0,
-                start_frequency_hz: 0.0,
-                idle_time_s: 0.0,
-                ramp_end_time_s: 0.0,
-            },
-            geometry: AntennaGeometry {
-                tx: [(0.0, 0.0); TX],
-                rx: [(0.0, 0.0); RX],
-                f_design_hz: 0.0,
-            },
             params: Params::zeroed(),
             layout: ArrayLayout {
                 row_of: [[0; RX]; TX],
@@ -167,9 +268,6 @@ impl<
                 el: [0.0; M],
                 slot: [0; M],
             },
-            coupling: [[ZERO; N]; M],
-            coupling_on: false,
-            range: RangeFft::unconfigured(),
             doppler_window: [0.0; K],
             az_mu: [0.0; NAZ],
             el_nu: [0.0; NEL],
@@ -180,29 +278,27 @@ impl<
         }
     }
 
-    /// Validate the configuration and compute the tables in place (no chain-sized value on
-    /// the stack). On error `self` is unchanged. Any coupling calibration is removed.
+    /// Validate and compute the tables in place (no chain-sized value on the stack). On error
+    /// `self` is unchanged.
     pub fn configure(
         &mut self,
-        waveform: Waveform,
-        geometry: AntennaGeometry<TX, RX>,
+        frontend: &Frontend<N, K, TX, RX, M, AZ>,
         params: Params,
     ) -> Result<(), ConfigError> {
         const {
-            assert!(M == TX * RX, "M must equal TX · RX");
-            assert!(AZ >= 2 && AZ < M, "the azimuth line needs 2..M elements");
-            assert!(N.is_power_of_two() && K.is_power_of_two());
-            assert!(N <= u16::MAX as usize && K <= i16::MAX as usize);
             assert!(NAZ <= u16::MAX as usize && NEL <= u16::MAX as usize);
         };
-        waveform.validate()?;
-        let layout = ArrayLayout::new(&geometry, AZ)?;
-        params.validate(N, NAZ)?;
-        if NAZ < 3 || NEL < 3 {
-            return Err(ConfigError::OutOfRange(Param::GridSize));
+        if !frontend.is_configured() {
+            return Err(ConfigError::FrontendUnconfigured);
         }
+        params.validate(N, NAZ, NEL)?;
+        if params.range_window != frontend.range_window() {
+            return Err(ConfigError::OutOfRange(Param::RangeWindowKind));
+        }
+        let waveform = frontend.waveform();
+        let layout = *frontend.layout();
         let fc = waveform.center_frequency_hz(N);
-        let kappa = (core::f64::consts::PI * fc / geometry.f_design_hz) as f32;
+        let kappa = (core::f64::consts::PI * fc / frontend.geometry().f_design_hz) as f32;
         self.az_mu = sine_grid::<NAZ>(params.azimuth_span_deg);
         self.el_nu = sine_grid::<NEL>(params.elevation_span_deg);
         for (row, mu) in self.az_steer.iter_mut().zip(self.az_mu.iter()) {
@@ -215,75 +311,22 @@ impl<
                 *a = Complex32::from_polar(1.0, -kappa * nu * pos);
             }
         }
-        self.waveform = waveform;
-        self.geometry = geometry;
         self.params = params;
         self.layout = layout;
-        self.coupling_on = false;
-        self.range = RangeFft::new(params.range_window);
         self.doppler_window = params.doppler_window.coefficients();
-        self.range_bin_m = waveform.range_bin_m(N) as f32;
-        self.doppler_bin_mps = waveform.doppler_bin_mps(N, K, TX) as f32;
+        self.range_bin_m = frontend.range_bin_m();
+        self.doppler_bin_mps = frontend.doppler_bin_mps();
         Ok(())
     }
 
-    /// [`Self::set_coupling`], by value.
-    pub fn with_coupling(
-        mut self,
-        coupling: &[[&[Complex32]; RX]; TX],
-    ) -> Result<Self, ConfigError> {
-        self.set_coupling(coupling)?;
-        Ok(self)
-    }
-
-    /// Attach a coupling calibration in data order `[tx][rx][range bin]`, subtracted from the
-    /// range-FFT output of every chirp (same units: unnormalised FFT of the windowed,
-    /// DC-removed chirp). Range bins beyond a table's length are not corrected. On error the
-    /// previous calibration is kept.
-    pub fn set_coupling(&mut self, coupling: &[[&[Complex32]; RX]; TX]) -> Result<(), ConfigError> {
-        for bins in coupling.iter().flatten() {
-            if bins.len() > N {
-                return Err(ConfigError::OutOfRange(Param::Coupling));
-            }
-            if bins.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())) {
-                return Err(ConfigError::NotFinite(Param::Coupling));
-            }
-        }
-        for row in self.coupling.iter_mut() {
-            *row = [ZERO; N];
-        }
-        for (t, per_rx) in coupling.iter().enumerate() {
-            for (r, bins) in per_rx.iter().enumerate() {
-                let row = usize::from(self.layout.row_of[t][r]);
-                if let Some(dst) = self.coupling.get_mut(row) {
-                    for (d, s) in dst.iter_mut().zip(bins.iter()) {
-                        *d = *s;
-                    }
-                }
-            }
-        }
-        self.coupling_on = true;
-        Ok(())
-    }
-
-    /// The waveform.
-    pub fn waveform(&self) -> &Waveform {
-        &self.waveform
-    }
-
-    /// The antenna geometry.
-    pub fn geometry(&self) -> &AntennaGeometry<TX, RX> {
-        &self.geometry
+    /// The cube row order of the frontend the chain was configured from.
+    pub fn layout(&self) -> &ArrayLayout<TX, RX, M> {
+        &self.layout
     }
 
     /// The processing parameters.
     pub fn params(&self) -> &Params {
         &self.params
-    }
-
-    /// The cube row order derived from the geometry.
-    pub fn layout(&self) -> &ArrayLayout<TX, RX, M> {
-        &self.layout
     }
 
     /// Direction cosine μ = sin φ of each azimuth grid bin.
@@ -306,50 +349,27 @@ impl<
         self.doppler_bin_mps
     }
 
-    /// Ingest one chirp: `chirp[rx][sample] = [I, Q]` of TX slot `id.tx_slot` in loop
-    /// `id.loop_index`, as the ADC delivers it. Chirps must come in TDM order (loop 0 slot 0,
-    /// loop 0 slot 1, …); any other chirp is not stored and makes the frame an error (returned
-    /// here and by [`Self::process`]) until [`Cube::begin_frame`].
-    pub fn push_chirp(
-        &self,
-        cube: &mut Cube<'_, N, M, K>,
-        id: ChirpId,
-        chirp: &[[[i16; 2]; N]; RX],
-    ) -> Result<(), FrameError> {
-        crate::range::ingest(
-            &self.range,
-            &self.layout.row_of,
-            self.coupling_on.then_some(&self.coupling),
-            cube,
-            id,
-            chirp,
-        )
-    }
-
-    /// Process a complete frame into `out`. Fails only when the cube is not a complete,
-    /// in-order frame; never panics. The workspace keeps the range–azimuth map, covariances
-    /// and detections for inspection.
-    pub fn process<const DET: usize, const P: usize>(
-        &self,
-        cube: &Cube<'_, N, M, K>,
-        work: &mut Workspace<N, M, K, NAZ, DET>,
-        out: &mut PointCloud<P>,
-    ) -> Result<(), FrameError> {
-        out.clear();
-        cube.status(TX)?;
+    /// The processed range bins `first..=last`.
+    fn range_window(&self) -> (usize, usize) {
         let first = usize::from(self.params.range_first);
         let last = usize::from(self.params.range_last).min(N - 1);
+        (first, last)
+    }
 
-        // Stage 1: covariance per range bin, azimuth Capon spectrum → RA map.
+    /// Stage 1 (spec §3 step 1): the range–azimuth map. Per kept range bin: covariance of the
+    /// azimuth line, Capon power on the azimuth grid, and the row's loading floor.
+    pub fn azimuth_map(&self, frame: &Frame<'_, N, K, M>, work: &mut Workspace<N, K, M, NAZ, DET>) {
+        let (first, last) = self.range_window();
         for row in work.ra.iter_mut() {
             *row = [0.0; NAZ];
         }
         work.floor = [0.0; N];
+        work.skipped_range_bins = 0;
         for b in first..=last {
             let (Some(ra), Some(floor)) = (work.ra.get_mut(b), work.floor.get_mut(b)) else {
                 continue;
             };
-            cube.snapshots(b, &mut work.block);
+            frame.snapshots(b, &mut work.block);
             let mut cov = zero::<AZ>();
             covariance(&work.block[..], &mut cov);
             match self.azimuth_capon(&cov) {
@@ -360,25 +380,43 @@ impl<
                         *p = capon.power(&azimuth_part::<M, AZ>(steer));
                     }
                 }
-                None => out.stats.skipped_range_bins += 1,
+                None => work.skipped_range_bins += 1,
             }
         }
+    }
 
-        // Stage 2: OS-CFAR.
-        cfar::detect(
-            &work.ra,
-            &work.floor,
+    /// Stage 2 (spec §3 step 2): OS-CFAR on the range–azimuth map, never below a row's
+    /// loading floor.
+    pub fn detect_targets(&self, work: &mut Workspace<N, K, M, NAZ, DET>) {
+        let (first, last) = self.range_window();
+        let shape = MapShape {
             first,
             last,
+            columns: Columns::Truncated,
+        };
+        cfar::detect(
+            &work.ra,
+            Some(&work.floor),
+            shape,
             &self.params.cfar,
             &mut work.scratch,
             &mut work.detections,
         );
+    }
+
+    /// Stages 3–5 (spec §3 steps 3–5, with TDM compensation): the points of every detection,
+    /// and the frame's statistics. The full covariance is formed once per distinct range bin
+    /// (the detections come in range order unless an overflow replaced some).
+    pub fn resolve<const P: usize>(
+        &self,
+        frame: &Frame<'_, N, K, M>,
+        work: &mut Workspace<N, K, M, NAZ, DET>,
+        out: &mut PointCloud<P>,
+    ) {
+        out.clear();
+        out.stats.skipped_range_bins = work.skipped_range_bins;
         out.stats.detections = work.detections.as_slice().len() as u32;
         out.stats.detection_overflow = work.detections.overflow;
-
-        // Stages 3–5 per detection; the full covariance once per distinct range bin (the
-        // detections come in range order unless an overflow replaced some).
         let Workspace {
             block,
             ra,
@@ -390,17 +428,16 @@ impl<
         for det in detections.as_slice() {
             let b = usize::from(det.range_bin);
             if b != cov_bin {
-                cube.snapshots(b, block);
+                frame.snapshots(b, block);
                 covariance(&block[..], &mut cov);
                 cov_bin = b;
             }
             let before = out.stats.points + out.stats.point_overflow;
-            self.resolve(det, block, &cov, ra, out);
+            self.resolve_detection(det, block, &cov, ra, out);
             if out.stats.points + out.stats.point_overflow == before {
                 out.stats.detections_without_point += 1;
             }
         }
-        Ok(())
     }
 
     /// Capon solver of the azimuth line's covariance (FB averaging if on, loading), and the
@@ -414,30 +451,27 @@ impl<
         Capon::new(&r).map(|c| (c, delta))
     }
 
-    /// Steering vector of all rows for azimuth bin `i`, elevation bin `j`.
-    fn steering(&self, i: usize, j: usize) -> [Complex32; M] {
-        let mut a = [ZERO; M];
-        if let (Some(az), Some(el)) = (self.az_steer.get(i), self.el_steer.get(j)) {
-            for ((o, x), y) in a.iter_mut().zip(az.iter()).zip(el.iter()) {
-                *o = x * y;
-            }
+    /// Capon power of azimuth bin `i` on the azimuth solver `az` (0 off the grid).
+    fn azimuth_power(&self, az: &Capon<AZ>, i: usize) -> f32 {
+        match self.az_steer.get(i) {
+            Some(s) => az.power(&azimuth_part::<M, AZ>(s)),
+            None => 0.0,
         }
-        a
     }
 
     /// Elevation, Doppler and points of one detection.
-    fn resolve<const P: usize>(
+    fn resolve_detection<const P: usize>(
         &self,
         det: &Detection,
-        snap: &[[Complex32; K]; M],
+        snap: &Snapshots<K, M>,
         cov: &Matrix<M>,
         ra: &[[f32; NAZ]; N],
         out: &mut PointCloud<P>,
     ) {
         let b = usize::from(det.range_bin);
-        let mut i = usize::from(det.azimuth_bin).min(NAZ - 1);
+        let mut i = usize::from(det.column).min(NAZ - 1);
         // Sub-grid offsets: range from the RA map's column, azimuth from the spectrum the
-        // final azimuth bin was chosen on (replaced below when TDM compensation re-estimates).
+        // final azimuth bin was chosen on (replaced when TDM compensation re-estimates).
         let at = |row: Option<usize>, col: usize| {
             row.and_then(|b| ra.get(b))
                 .and_then(|r| r.get(col))
@@ -454,45 +488,28 @@ impl<
         let mut r = *cov;
         let mut rot = [ONE; M];
         if self.params.tdm_compensation {
-            let Some((az, _)) = self.azimuth_capon(&leading_block(&r)) else {
+            let Some(c) = self.compensate_tdm(&mut r, snap, i) else {
                 return;
             };
-            let w = az.weight(&azimuth_part::<M, AZ>(&self.az_steer[i]));
-            let mut y = [ZERO; K];
-            beamform(&w, snap, &[ONE; AZ], &mut y);
-            let d = doppler_peak(&mut y, &self.doppler_window).bin;
-            // exp(−j·4π·v·t·Tc/λ) with v = d·λ/(2·K·TX·Tc) is exp(−j·2π·d·t/(K·TX)).
-            let per_slot = -2.0 * core::f32::consts::PI * f32::from(d) / (K * TX) as f32;
-            for (o, &slot) in rot.iter_mut().zip(self.layout.slot.iter()) {
-                *o = Complex32::from_polar(1.0, per_slot * f32::from(slot));
-            }
-            rotate_rows(&mut r, &rot);
-            if let Some((az, _)) = self.azimuth_capon(&leading_block(&r)) {
-                i = self.climb_azimuth(&az, i);
-                let power = |i: usize| match self.az_steer.get(i) {
-                    Some(s) => az.power(&azimuth_part::<M, AZ>(s)),
-                    None => 0.0,
-                };
-                az_frac = parabolic_offset(power(i.wrapping_sub(1)), power(i), power(i + 1));
-            }
+            (rot, i) = (c.rotation, c.azimuth_bin);
+            az_frac = c.azimuth_frac.unwrap_or(az_frac);
         }
 
-        // Stage 3: elevation sweep on the full array, no FB averaging.
+        // Elevation sweep on the full array, no FB averaging.
         let _ = load_diagonal(&mut r, self.params.loading);
         let Some(el) = Capon::<M>::new(&r) else {
             return;
         };
-        let mut spectrum = [0.0f32; NEL];
-        for (j, p) in spectrum.iter_mut().enumerate() {
-            *p = el.power(&self.steering(i, j));
-        }
-        let peaks = strongest_interior_peaks(
-            &spectrum,
-            usize::from(self.params.elevation.max_peaks),
-            self.params.elevation.peak_range_db,
+        let mut s = [0.0f32; NEL];
+        let peaks = elevation::sweep(
+            &el,
+            &self.az_steer[i],
+            &self.el_steer,
+            &self.params.elevation,
+            &mut s,
         );
 
-        // Stage 4–5: Capon-weighted Doppler and the point per elevation peak.
+        // Capon-weighted Doppler and the point per elevation peak.
         let subgrid = self.params.subgrid;
         let (mu, range) = if subgrid {
             (
@@ -505,36 +522,71 @@ impl<
         let snr_db = ratio_db(det.power, det.level);
         for &(j, power) in peaks.iter().flatten() {
             let nu = if subgrid {
-                let frac = parabolic_offset(spectrum[j - 1], spectrum[j], spectrum[j + 1]);
+                let frac = parabolic_offset(s[j - 1], s[j], s[j + 1]);
                 sine_at(self.params.elevation_span_deg, NEL, j as f32 + frac)
             } else {
                 self.el_nu[j]
             };
-            let cos2 = 1.0 - mu * mu - nu * nu;
-            if !(cos2 > 0.0) {
+            let Some(point) = Point::at(range, mu, nu) else {
                 continue;
-            }
-            let w = el.weight(&self.steering(i, j));
+            };
+            let w = el.weight(&elevation::steering(&self.az_steer[i], &self.el_steer[j]));
             let mut y = [ZERO; K];
             beamform(&w, snap, &rot, &mut y);
             let peak = doppler_peak(&mut y, &self.doppler_window);
-            let d = peak.bin;
             let doppler = if subgrid {
-                f32::from(d) + peak.offset
+                f32::from(peak.bin) + peak.offset
             } else {
-                f32::from(d)
+                f32::from(peak.bin)
             };
             out.push(Point {
-                position: glam::Vec3::new(range * libm::sqrtf(cos2), -range * mu, range * nu),
                 velocity_mps: doppler * self.doppler_bin_mps,
-                power_db: 10.0 * libm::log10f(power.max(f32::MIN_POSITIVE)),
+                power_db: power_db(power),
                 snr_db,
                 range_bin: det.range_bin,
                 azimuth_bin: i as u16,
                 elevation_bin: j as u16,
-                doppler_bin: d,
+                doppler_bin: peak.bin,
+                ..point
             });
         }
+    }
+
+    /// TDM-MIMO motion compensation of one detection at azimuth bin `i` (see [`crate::tdm`]):
+    /// the Doppler bin `d` of the azimuth Capon beam, the rotation of `r` by it, and the
+    /// azimuth re-estimated uphill on the compensated spectrum (at most
+    /// `tdm_azimuth_search` bins). `None` when the azimuth covariance is not positive
+    /// definite.
+    #[inline(always)]
+    fn compensate_tdm(
+        &self,
+        r: &mut Matrix<M>,
+        snap: &Snapshots<K, M>,
+        i: usize,
+    ) -> Option<Compensation<M>> {
+        let (az, _) = self.azimuth_capon(&leading_block(r))?;
+        let w = az.weight(&azimuth_part::<M, AZ>(&self.az_steer[i]));
+        let mut y = [ZERO; K];
+        beamform(&w, snap, &[ONE; AZ], &mut y);
+        let d = doppler_peak(&mut y, &self.doppler_window).bin;
+        let rotation = tdm::rotation::<K, TX, M>(&self.layout.slot, f32::from(d));
+        rotate_rows(r, &rotation);
+        let mut c = Compensation {
+            rotation,
+            azimuth_bin: i,
+            azimuth_frac: None,
+        };
+        if let Some((az, _)) = self.azimuth_capon(&leading_block(r)) {
+            let i = self.climb_azimuth(&az, i);
+            let power = |i: usize| self.azimuth_power(&az, i);
+            c.azimuth_bin = i;
+            c.azimuth_frac = Some(parabolic_offset(
+                power(i.wrapping_sub(1)),
+                power(i),
+                power(i + 1),
+            ));
+        }
+        Some(c)
     }
 
     /// Move from azimuth bin `i` uphill on the Capon spectrum of `az`, at most
@@ -559,6 +611,63 @@ impl<
     }
 }
 
+/// What TDM compensation decided for one detection.
+struct Compensation<const M: usize> {
+    /// Per-row rotation applied to the covariance (and to the slow time before Doppler).
+    rotation: [Complex32; M],
+    /// Azimuth bin after the climb on the compensated spectrum.
+    azimuth_bin: usize,
+    /// Sub-grid azimuth offset on the compensated spectrum (`None`: keep the map's).
+    azimuth_frac: Option<f32>,
+}
+
+impl<
+        const N: usize,
+        const K: usize,
+        const TX: usize,
+        const RX: usize,
+        const M: usize,
+        const AZ: usize,
+        const NAZ: usize,
+        const NEL: usize,
+        const DET: usize,
+    > Chain<N, K, TX, RX, M, AZ> for Dbe<N, K, TX, RX, M, AZ, NAZ, NEL, DET>
+{
+    const NAME: &'static str = "dbe";
+    const STAGES: [&'static str; 3] = ["azimuth_capon", "cfar", "elevation_doppler"];
+    type Params = Params;
+    type Workspace = Workspace<N, K, M, NAZ, DET>;
+
+    fn configure(
+        &mut self,
+        frontend: &Frontend<N, K, TX, RX, M, AZ>,
+        params: Params,
+    ) -> Result<(), ConfigError> {
+        Dbe::configure(self, frontend, params)
+    }
+
+    fn map(&self, frame: &Frame<'_, N, K, M>, work: &mut Self::Workspace) {
+        self.azimuth_map(frame, work);
+    }
+
+    fn detect(&self, work: &mut Self::Workspace) {
+        self.detect_targets(work);
+    }
+
+    fn points<const P: usize>(
+        &self,
+        frame: &Frame<'_, N, K, M>,
+        work: &mut Self::Workspace,
+        out: &mut PointCloud<P>,
+    ) {
+        self.resolve(frame, work, out);
+    }
+
+    fn detections(work: &Self::Workspace) -> &[Detection] {
+        work.detections()
+    }
+}
+
 /// `y[k] = Σ_m conj(w_m) · rot_m · x_m[k]` over the first `D` rows of `snap`.
 fn beamform<const D: usize, const M: usize, const K: usize>(
     w: &[Complex32; D],
@@ -580,42 +689,4 @@ fn azimuth_part<const M: usize, const AZ: usize>(row: &[Complex32; M]) -> [Compl
     let mut a = [ZERO; AZ];
     a.copy_from_slice(&row[..AZ]);
     a
-}
-
-/// Up to `max` interior local maxima of `p` (`p[j−1] < p[j] ≥ p[j+1]`), strongest first, each
-/// within `range_db` of the strongest.
-fn strongest_interior_peaks<const L: usize>(
-    p: &[f32; L],
-    max: usize,
-    range_db: f32,
-) -> [Option<(usize, f32)>; MAX_ELEVATION_PEAKS] {
-    let max = max.min(MAX_ELEVATION_PEAKS);
-    let mut best: [Option<(usize, f32)>; MAX_ELEVATION_PEAKS] = [None; MAX_ELEVATION_PEAKS];
-    for j in 1..L.saturating_sub(1) {
-        if !(p[j] > p[j - 1] && p[j] >= p[j + 1]) {
-            continue;
-        }
-        // Insertion into the sorted list of the `max` strongest: a stronger candidate takes
-        // the slot and carries the weaker one down; what falls off the end is dropped.
-        let mut cand = (j, p[j]);
-        for slot in best.iter_mut().take(max) {
-            match slot {
-                None => {
-                    *slot = Some(cand);
-                    break;
-                }
-                Some(s) if cand.1 > s.1 => core::mem::swap(s, &mut cand),
-                Some(_) => {}
-            }
-        }
-    }
-    if let Some((_, top)) = best[0] {
-        let floor = top * libm::powf(10.0, -range_db / 10.0);
-        for slot in best.iter_mut() {
-            if slot.is_some_and(|(_, q)| q < floor) {
-                *slot = None;
-            }
-        }
-    }
-    best
 }

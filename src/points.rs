@@ -1,4 +1,5 @@
-//! Stage 5 output: the point cloud of one frame and its statistics.
+//! Points: the one place both chains turn a range and a direction into a [`Point`], the point
+//! cloud of one frame and its statistics.
 
 use glam::Vec3;
 
@@ -22,6 +23,34 @@ pub struct Point {
     pub elevation_bin: u16,
     /// Signed Doppler bin, `−K/2 .. K/2`.
     pub doppler_bin: i16,
+}
+
+impl Point {
+    /// A point at `range_m` in the direction with cosines `μ` (azimuth, `−u_y`) and `ν`
+    /// (elevation, `u_z`): `x = R·√(1 − μ² − ν²)`, `y = −R·μ`, `z = R·ν` (spec §2), every
+    /// other field zero. `None` when `μ² + ν² ≥ 1` (no such direction) or either is NaN.
+    ///
+    /// ```
+    /// let p = dbe_radar::Point::at(2.0, 0.6, 0.0).unwrap();
+    /// assert!((p.position.x - 1.6).abs() < 1e-6 && (p.position.y + 1.2).abs() < 1e-6);
+    /// assert!(dbe_radar::Point::at(2.0, 0.8, 0.6).is_none());
+    /// ```
+    pub fn at(range_m: f32, mu: f32, nu: f32) -> Option<Self> {
+        let cos2 = 1.0 - mu * mu - nu * nu;
+        if !(cos2 > 0.0) {
+            return None;
+        }
+        Some(Self {
+            position: Vec3::new(range_m * libm::sqrtf(cos2), -range_m * mu, range_m * nu),
+            ..Self::default()
+        })
+    }
+}
+
+/// `10·log10(power)` of a linear power, floored at the smallest positive `f32` (a point's
+/// `power_db`).
+pub(crate) fn power_db(power: f32) -> f32 {
+    10.0 * libm::log10f(power.max(f32::MIN_POSITIVE))
 }
 
 /// Per-frame statistics.
@@ -81,11 +110,13 @@ impl<const P: usize> PointCloud<P> {
         &self.points[..self.len]
     }
 
+    /// Forget the points and statistics (the first thing a chain's point stage does).
     pub(crate) fn clear(&mut self) {
         self.len = 0;
         self.stats = FrameStats::default();
     }
 
+    /// Add `p`, or count it in `point_overflow` when the cloud is full.
     pub(crate) fn push(&mut self, p: Point) {
         if self.len < P {
             self.points[self.len] = p;

@@ -1,8 +1,8 @@
-//! Stage 0: per-chirp range processing (DC removal, window, range FFT).
+//! Stage 0: per-chirp range processing (DC removal, window, range FFT), run by
+//! [`crate::Frontend::push_chirp`].
 
 use num_complex::Complex32;
 
-use crate::cube::{ChirpId, Cube, FrameError};
 use crate::fft::fft_in_place;
 
 /// Range processing of one chirp of one virtual antenna, with its window table.
@@ -53,43 +53,4 @@ impl<const N: usize> RangeFft<N> {
         }
         fft_in_place(out);
     }
-}
-
-/// Ingest one chirp into `cube` (shared by both chains): check its TDM order, range-process
-/// each RX, subtract the coupling calibration of its cube row, store it.
-///
-/// `rows[t][r]` is the cube row of TX slot `t`, RX `r`; `coupling[row]` the optional
-/// calibration per cube row.
-pub(crate) fn ingest<
-    const N: usize,
-    const K: usize,
-    const TX: usize,
-    const RX: usize,
-    const M: usize,
->(
-    range: &RangeFft<N>,
-    rows: &[[u8; RX]; TX],
-    coupling: Option<&[[Complex32; N]; M]>,
-    cube: &mut Cube<'_, N, M, K>,
-    id: ChirpId,
-    chirp: &[[[i16; 2]; N]; RX],
-) -> Result<(), FrameError> {
-    let Some(k) = cube.accept(id, TX) else {
-        return cube.status(TX).and(Err(FrameError::TooManyChirps));
-    };
-    let Some(rows) = rows.get(usize::from(id.tx_slot)) else {
-        return Ok(());
-    };
-    let mut spectrum = [Complex32::new(0.0, 0.0); N];
-    for (samples, &row) in chirp.iter().zip(rows.iter()) {
-        let row = usize::from(row);
-        range.process(samples, &mut spectrum);
-        if let Some(c) = coupling.and_then(|c| c.get(row)) {
-            for (s, c) in spectrum.iter_mut().zip(c.iter()) {
-                *s -= *c;
-            }
-        }
-        cube.store(row, k, &spectrum);
-    }
-    Ok(())
 }

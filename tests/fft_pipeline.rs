@@ -29,14 +29,14 @@ mod common;
 
 use common::{id, storage, synth, Target};
 use dbe_radar::config::{Param, SPEED_OF_LIGHT};
-use dbe_radar::fft_pipeline::{CfarKind, RdCfarParams};
 use dbe_radar::presets::coloradar as p;
 use dbe_radar::window::WindowKind;
 use dbe_radar::{
-    AntennaGeometry, ConfigError, FftParams, FrameError, Params, Point, PointCloud, Waveform,
+    AntennaGeometry, CfarKind, CfarParams, Chain, ConfigError, FftParams, Params, Point,
+    PointCloud, Waveform,
 };
 
-const AZ_STEP_DEG: f64 = 140.0 / 187.0;
+const AZ_STEP_DEG: f64 = p::AZIMUTH_STEP_DEG as f64;
 
 struct Run {
     cloud: Box<p::PointCloud>,
@@ -44,8 +44,12 @@ struct Run {
     chain: p::FftChain,
 }
 
+fn frontend() -> p::Frontend {
+    p::frontend().expect("valid")
+}
+
 fn chain(params: FftParams) -> p::FftChain {
-    p::FftChain::new(Waveform::COLORADAR, AntennaGeometry::COLORADAR, params).expect("valid")
+    p::FftChain::new(&frontend(), params).expect("valid")
 }
 
 fn frame(targets: &[Target], noise: f64, seed: u64) -> Vec<p::Chirp> {
@@ -59,15 +63,16 @@ fn frame(targets: &[Target], noise: f64, seed: u64) -> Vec<p::Chirp> {
 }
 
 fn run_chirps(chirps: &[p::Chirp], params: FftParams) -> Run {
+    let f = frontend();
     let chain = chain(params);
     let mut st = storage();
     let mut cube = p::Cube::new(&mut st);
     for (i, c) in chirps.iter().enumerate() {
-        chain.push_chirp(&mut cube, id(i, p::TX), c).unwrap();
+        f.push_chirp(&mut cube, id(i, p::TX), c).unwrap();
     }
     let mut work = Box::new(p::FftWorkspace::new());
     let mut cloud = Box::new(p::PointCloud::new());
-    chain.process(&cube, &mut work, &mut cloud).unwrap();
+    chain.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
     Run { cloud, work, chain }
 }
 
@@ -286,7 +291,10 @@ fn the_layout_pairs_the_elevation_row_with_the_line_elements_below_it() {
         assert_eq!(c.layout().el[e] - c.layout().el[a], model().del as f32);
     }
     // Both chains report on identical azimuth bins.
-    assert_eq!(c.azimuth_grid(), p::dbe().unwrap().azimuth_grid());
+    assert_eq!(
+        c.azimuth_grid(),
+        p::dbe(&frontend()).unwrap().azimuth_grid()
+    );
     let m = model();
     assert!((f64::from(c.range_bin_m()) - m.range_bin).abs() < 1e-6);
     assert!((f64::from(c.doppler_bin_mps()) - m.doppler_bin()).abs() < 1e-6);
@@ -320,7 +328,7 @@ fn single_static_and_moving_targets_are_recovered() {
             }
         }
         let det = r.work.detections()[0];
-        let d = (i32::from(det.doppler_bin).rem_euclid(p::LOOPS as i32)) as usize;
+        let d = usize::from(det.column);
         assert_eq!(cell, (usize::from(det.range_bin), d));
         let pt = r.cloud.points()[0];
         assert!((pt.power_db - 10.0 * best.log10()).abs() < 1e-3);
@@ -343,7 +351,7 @@ fn several_targets_in_one_frame_are_all_recovered_with_ca_and_os_cfar() {
         Target::polar(11.0, 0.0, 0.0, 0.0, AMP),
     ];
     let chirps = frame(&ts, NOISE, 11);
-    for cfar in [RdCfarParams::CA_DEFAULT, RdCfarParams::OS_DEFAULT] {
+    for cfar in [CfarParams::RANGE_DOPPLER_CA, CfarParams::RANGE_DOPPLER_OS] {
         let params = FftParams {
             cfar,
             ..FftParams::defaults(p::SAMPLES)
@@ -447,7 +455,7 @@ fn noise_only_frames_give_few_points() {
     let mut total = [0usize; 2];
     for seed in 40..48 {
         let chirps = frame(&[], NOISE, seed);
-        for (i, cfar) in [RdCfarParams::CA_DEFAULT, RdCfarParams::OS_DEFAULT]
+        for (i, cfar) in [CfarParams::RANGE_DOPPLER_CA, CfarParams::RANGE_DOPPLER_OS]
             .into_iter()
             .enumerate()
         {
@@ -472,27 +480,29 @@ fn noise_only_frames_give_few_points() {
 
 #[test]
 fn a_cube_filled_by_the_dbe_chain_gives_the_same_cloud() {
+    let f = frontend();
     let ts = [
         Target::polar(5.0, 20.0, 5.0, 0.8, AMP),
         Target::polar(8.0, -30.0, -5.0, 0.0, AMP),
     ];
     let chirps = frame(&ts, NOISE, 5);
     let own = run_chirps(&chirps, FftParams::defaults(p::SAMPLES));
-    let dbe = p::dbe().unwrap();
+    let dbe = p::dbe(&frontend()).unwrap();
     let mut st = storage();
     let mut cube = p::Cube::new(&mut st);
     for (i, c) in chirps.iter().enumerate() {
-        dbe.push_chirp(&mut cube, id(i, p::TX), c).unwrap();
+        f.push_chirp(&mut cube, id(i, p::TX), c).unwrap();
     }
     let mut work = Box::new(p::FftWorkspace::new());
     let mut cloud = Box::new(p::PointCloud::new());
-    own.chain.process(&cube, &mut work, &mut cloud).unwrap();
+    own.chain
+        .process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
     assert_eq!(cloud.points(), own.cloud.points());
     assert_eq!(cloud.points().len(), 2);
     // And the DBE chain on the very same cube finds the same targets.
     let mut dwork = Box::new(p::Workspace::new());
     let mut dcloud = Box::new(p::PointCloud::new());
-    dbe.process(&cube, &mut dwork, &mut dcloud).unwrap();
+    dbe.process(&f.frame(&cube).unwrap(), &mut dwork, &mut dcloud);
     for pt in cloud.points() {
         assert!(dcloud
             .points()
@@ -505,20 +515,21 @@ fn a_cube_filled_by_the_dbe_chain_gives_the_same_cloud() {
 /// over the 12 rows).
 #[test]
 fn range_doppler_map_matches_a_direct_dft() {
+    let f = frontend();
     let t = Target::polar(5.0, 20.0, 5.0, 0.8, AMP);
     let chirps = frame(&[t], NOISE, 6);
     let c = chain(FftParams::defaults(p::SAMPLES));
     let mut st = storage();
     let mut cube = p::Cube::new(&mut st);
     for (i, ch) in chirps.iter().enumerate() {
-        c.push_chirp(&mut cube, id(i, p::TX), ch).unwrap();
+        f.push_chirp(&mut cube, id(i, p::TX), ch).unwrap();
     }
     let mut work = Box::new(p::FftWorkspace::new());
     let mut cloud = Box::new(p::PointCloud::new());
-    c.process(&cube, &mut work, &mut cloud).unwrap();
+    c.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
     let w: [f32; p::LOOPS] = WindowKind::Hann.coefficients();
     let det = work.detections()[0];
-    let d0 = (i32::from(det.doppler_bin).rem_euclid(p::LOOPS as i32)) as usize;
+    let d0 = usize::from(det.column);
     let cells = [
         (usize::from(det.range_bin), d0),
         (usize::from(det.range_bin), (d0 + 1) % p::LOOPS),
@@ -529,7 +540,7 @@ fn range_doppler_map_matches_a_direct_dft() {
     let mut block = Box::new([[dbe_radar::Complex32::new(0.0, 0.0); p::LOOPS]; p::VIRTUAL]);
     for (b, d) in cells {
         let mut power = 0.0f64;
-        cube.snapshots(b, &mut block);
+        f.frame(&cube).unwrap().snapshots(b, &mut block);
         for row in block.iter() {
             let (mut re, mut im) = (0.0f64, 0.0f64);
             for (k, (x, &wk)) in row.iter().zip(w.iter()).enumerate() {
@@ -559,8 +570,12 @@ fn config_errors_name_the_parameter() {
     let w = Waveform::COLORADAR;
     let g = AntennaGeometry::COLORADAR;
     let d = FftParams::defaults(p::SAMPLES);
-    let err = |g, params| p::FftChain::new(w, g, params).err();
-    let cfar = |c: RdCfarParams| FftParams { cfar: c, ..d };
+    let err = |g, params| {
+        p::Frontend::new(w, g, WindowKind::Blackman)
+            .and_then(|f| p::FftChain::new(&f, params))
+            .err()
+    };
+    let cfar = |c: CfarParams| FftParams { cfar: c, ..d };
     assert_eq!(
         err(
             g,
@@ -595,30 +610,30 @@ fn config_errors_name_the_parameter() {
     assert_eq!(
         err(
             g,
-            cfar(RdCfarParams {
-                train_doppler: 62,
+            cfar(CfarParams {
+                train_cross: 62,
                 train_range: 0,
-                ..RdCfarParams::CA_DEFAULT
+                ..CfarParams::RANGE_DOPPLER_CA
             })
         ),
         Some(ConfigError::OutOfRange(Param::CfarWindow))
     );
     assert!(err(
         g,
-        cfar(RdCfarParams {
-            train_doppler: 61,
+        cfar(CfarParams {
+            train_cross: 61,
             train_range: 0,
-            ..RdCfarParams::CA_DEFAULT
+            ..CfarParams::RANGE_DOPPLER_CA
         })
     )
     .is_none());
     assert_eq!(
         err(
             g,
-            cfar(RdCfarParams {
+            cfar(CfarParams {
                 train_range: 20,
-                train_doppler: 20,
-                ..RdCfarParams::CA_DEFAULT
+                train_cross: 20,
+                ..CfarParams::RANGE_DOPPLER_CA
             })
         ),
         Some(ConfigError::OutOfRange(Param::CfarWindow))
@@ -626,10 +641,10 @@ fn config_errors_name_the_parameter() {
     assert_eq!(
         err(
             g,
-            cfar(RdCfarParams {
+            cfar(CfarParams {
                 train_range: 0,
-                train_doppler: 0,
-                ..RdCfarParams::CA_DEFAULT
+                train_cross: 0,
+                ..CfarParams::RANGE_DOPPLER_CA
             })
         ),
         Some(ConfigError::OutOfRange(Param::CfarWindow))
@@ -642,9 +657,9 @@ fn config_errors_name_the_parameter() {
         assert_eq!(
             err(
                 g,
-                cfar(RdCfarParams {
+                cfar(CfarParams {
                     kind: CfarKind::OrderStatistic { quantile: q },
-                    ..RdCfarParams::OS_DEFAULT
+                    ..CfarParams::RANGE_DOPPLER_OS
                 })
             ),
             Some(e)
@@ -653,22 +668,22 @@ fn config_errors_name_the_parameter() {
     assert_eq!(
         err(
             g,
-            cfar(RdCfarParams {
+            cfar(CfarParams {
                 threshold_db: f32::INFINITY,
-                ..RdCfarParams::CA_DEFAULT
+                ..CfarParams::RANGE_DOPPLER_CA
             })
         ),
         Some(ConfigError::NotFinite(Param::CfarThreshold))
     );
     // The waveform and geometry go through the DBE chain's validation.
     assert_eq!(
-        p::FftChain::new(
+        p::Frontend::new(
             Waveform {
                 slope_hz_per_s: f64::NAN,
                 ..w
             },
             g,
-            d
+            WindowKind::Blackman
         )
         .err(),
         Some(ConfigError::NotFinite(Param::Slope))
@@ -684,8 +699,9 @@ fn config_errors_name_the_parameter() {
         Some(ConfigError::OutOfRange(Param::AntennaPosition))
     );
     // The presets are valid.
-    assert!(p::fft_chain().is_ok());
-    assert!(dbe_radar::presets::iwr6843::fft_chain().is_ok());
+    assert!(p::fft_chain(&frontend()).is_ok());
+    let f6843 = dbe_radar::presets::iwr6843::frontend().unwrap();
+    assert!(dbe_radar::presets::iwr6843::fft_chain(&f6843).is_ok());
     // `from_dbe` copies the shared settings.
     let dp = Params {
         range_first: 20,
@@ -697,44 +713,18 @@ fn config_errors_name_the_parameter() {
     assert_eq!(f.azimuth_span_deg, dp.azimuth_span_deg);
 }
 
-#[test]
-fn frame_errors_are_reported() {
-    let c = p::fft_chain().unwrap();
-    let zero: p::Chirp = [[[0, 0]; p::SAMPLES]; p::RX];
-    let mut st = storage();
-    let mut cube = p::Cube::new(&mut st);
-    let mut work = Box::new(p::FftWorkspace::new());
-    let mut cloud = Box::new(p::PointCloud::new());
-    c.push_chirp(&mut cube, id(0, p::TX), &zero).unwrap();
-    assert_eq!(
-        c.process(&cube, &mut work, &mut cloud),
-        Err(FrameError::Incomplete {
-            received: 1,
-            expected: 384
-        })
-    );
-    assert!(matches!(
-        c.push_chirp(&mut cube, id(2, p::TX), &zero),
-        Err(FrameError::OutOfOrder { .. })
-    ));
-    assert!(matches!(
-        c.process(&cube, &mut work, &mut cloud),
-        Err(FrameError::OutOfOrder { .. })
-    ));
-    assert_eq!(cloud.points().len(), 0);
-}
-
-fn feed(c: &p::FftChain, cube: &mut p::Cube<'_>, chirp: impl Fn(usize) -> p::Chirp) {
+fn feed(f: &p::Frontend, cube: &mut p::Cube<'_>, chirp: impl Fn(usize) -> p::Chirp) {
     cube.begin_frame();
     for i in 0..p::LOOPS * p::TX {
-        c.push_chirp(cube, id(i, p::TX), &chirp(i))
+        f.push_chirp(cube, id(i, p::TX), &chirp(i))
             .expect("in order");
     }
 }
 
 #[test]
 fn degenerate_frames_do_not_panic() {
-    for cfar in [RdCfarParams::CA_DEFAULT, RdCfarParams::OS_DEFAULT] {
+    let f = frontend();
+    for cfar in [CfarParams::RANGE_DOPPLER_CA, CfarParams::RANGE_DOPPLER_OS] {
         let c = chain(FftParams {
             cfar,
             ..FftParams::defaults(p::SAMPLES)
@@ -762,18 +752,18 @@ fn degenerate_frames_do_not_panic() {
         };
 
         // All zero and saturated DC: an all-zero map, no detections.
-        feed(&c, &mut cube, |_| [[[0, 0]; p::SAMPLES]; p::RX]);
-        c.process(&cube, &mut work, &mut cloud).unwrap();
+        feed(&f, &mut cube, |_| [[[0, 0]; p::SAMPLES]; p::RX]);
+        c.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
         assert_eq!(cloud.points().len(), 0);
         assert_eq!(cloud.stats.detections, 0);
-        feed(&c, &mut cube, |_| {
+        feed(&f, &mut cube, |_| {
             [[[i16::MAX, i16::MIN]; p::SAMPLES]; p::RX]
         });
-        c.process(&cube, &mut work, &mut cloud).unwrap();
+        c.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
         assert_eq!(cloud.stats.detections, 0);
 
         // Full-scale square wave on every channel, alternating sign per chirp.
-        feed(&c, &mut cube, |i| {
+        feed(&f, &mut cube, |i| {
             core::array::from_fn(|_| {
                 core::array::from_fn(|n| {
                     let s = if (n / 4 + i) % 2 == 0 {
@@ -785,12 +775,12 @@ fn degenerate_frames_do_not_panic() {
                 })
             })
         });
-        c.process(&cube, &mut work, &mut cloud).unwrap();
+        c.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
         check(&cloud);
         assert!(work.range_doppler().iter().flatten().all(|v| v.is_finite()));
 
         // One hot antenna (TX0/RX2 only): the elevation pairs see zero on one side.
-        feed(&c, &mut cube, |i| {
+        feed(&f, &mut cube, |i| {
             core::array::from_fn(|r| {
                 core::array::from_fn(|n| {
                     if i % p::TX == 0 && r == 2 {
@@ -801,7 +791,7 @@ fn degenerate_frames_do_not_panic() {
                 })
             })
         });
-        c.process(&cube, &mut work, &mut cloud).unwrap();
+        c.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
         check(&cloud);
         // Only line row 2 (TX0/RX2, az 2) carries signal; its elevation partner (TX2/RX0) is
         // silent, so every pair product is zero and no detection yields a point.
@@ -818,14 +808,15 @@ fn degenerate_frames_do_not_panic() {
         let chirps: Vec<p::Chirp> = (0..p::LOOPS * p::TX)
             .map(|_| core::array::from_fn(|_| core::array::from_fn(|_| [next(), next()])))
             .collect();
-        feed(&c, &mut cube, |i| chirps[i]);
-        c.process(&cube, &mut work, &mut cloud).unwrap();
+        feed(&f, &mut cube, |i| chirps[i]);
+        c.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
         check(&cloud);
     }
 }
 
 #[test]
 fn detection_and_point_capacities_overflow_gracefully() {
+    let f = frontend();
     let targets: Vec<Target> = (0..6)
         .map(|i| {
             Target::polar(
@@ -838,18 +829,29 @@ fn detection_and_point_capacities_overflow_gracefully() {
         })
         .collect();
     let chirps = frame(&targets, 10.0, 7);
-    let c = p::fft_chain().unwrap();
+    let c = dbe_radar::FftChain::<
+        { p::SAMPLES },
+        { p::LOOPS },
+        { p::TX },
+        { p::RX },
+        { p::VIRTUAL },
+        { p::AZIMUTH },
+        { p::AZIMUTH_BINS },
+        { p::ELEVATION_BINS },
+        2,
+    >::new(&f, p::fft_params())
+    .unwrap();
     let mut st = storage();
     let mut cube = p::Cube::new(&mut st);
-    feed(&c, &mut cube, |i| chirps[i]);
+    feed(&f, &mut cube, |i| chirps[i]);
     let mut work = Box::new(dbe_radar::FftWorkspace::<
         { p::SAMPLES },
-        { p::VIRTUAL },
         { p::LOOPS },
+        { p::VIRTUAL },
         2,
     >::new());
     let mut cloud = Box::new(PointCloud::<1>::new());
-    c.process(&cube, &mut work, &mut cloud).unwrap();
+    c.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
     assert_eq!(cloud.stats.detections, 2);
     assert_eq!(cloud.stats.detection_overflow, 4, "{:?}", cloud.stats);
     assert_eq!(cloud.points().len(), 1);
@@ -882,10 +884,10 @@ fn buffer_sizes() {
         assert_eq!(ws, 77_312);
         assert_eq!(size_of::<q::FftWorkspace>(), round8(ws + w + 4));
     }
-    // Chain tables: coupling M·N·8, range window N·4, Doppler window K·4, twiddles K·8,
-    // line steering NAZ·AZ·8, μ grid NAZ·4, plus small configuration.
-    let tables = 12 * 128 * 8 + 128 * 4 + 128 * 4 + 128 * 8 + 188 * 8 * 8 + 188 * 4;
-    assert_eq!(tables, 27_120);
+    // Chain tables: Doppler window K·4, twiddles K·8, line steering NAZ·AZ·8, μ grid NAZ·4,
+    // plus small configuration (the range window and coupling live in the frontend).
+    let tables = 128 * 4 + 128 * 8 + 188 * 8 * 8 + 188 * 4;
+    assert_eq!(tables, 14_320);
     let chain = size_of::<p::FftChain>();
     assert!(
         chain >= tables && chain <= tables + 512,
@@ -906,9 +908,9 @@ fn a_strong_target_gives_one_point() {
         for (amp, kinds) in [
             (
                 2000.0,
-                &[RdCfarParams::CA_DEFAULT, RdCfarParams::OS_DEFAULT][..],
+                &[CfarParams::RANGE_DOPPLER_CA, CfarParams::RANGE_DOPPLER_OS][..],
             ),
-            (8000.0, &[RdCfarParams::CA_DEFAULT][..]),
+            (8000.0, &[CfarParams::RANGE_DOPPLER_CA][..]),
         ] {
             let t = Target::polar(6.0, az, 9.0, v, amp);
             let chirps = frame(&[t], NOISE, seed);
@@ -935,6 +937,7 @@ fn a_strong_target_gives_one_point() {
 /// over off-grid targets shrink and fall below the grid quantisation RMS 1/√12 ≈ 0.29.
 #[test]
 fn subgrid_refinement_beats_grid_quantisation() {
+    let f = frontend();
     let mut sum = [[0.0f64; 3]; 2];
     let n = 16;
     for seed in 0..n as u64 {
@@ -946,16 +949,15 @@ fn subgrid_refinement_beats_grid_quantisation() {
                 subgrid,
                 ..FftParams::defaults(p::SAMPLES)
             };
-            let c =
-                p::FftChain::new(Waveform::COLORADAR, AntennaGeometry::COLORADAR, params).unwrap();
+            let c = p::FftChain::new(&f, params).unwrap();
             let mut st = storage();
             let mut cube = p::Cube::new(&mut st);
             for (i, ch) in chirps.iter().enumerate() {
-                c.push_chirp(&mut cube, id(i, p::TX), ch).unwrap();
+                f.push_chirp(&mut cube, id(i, p::TX), ch).unwrap();
             }
             let mut work = Box::new(p::FftWorkspace::new());
             let mut cloud = Box::new(p::PointCloud::new());
-            c.process(&cube, &mut work, &mut cloud).unwrap();
+            c.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
             let pt = cloud.points()[0];
             // Truth at mid-frame: the estimates average over the K loops.
             let half = p::LOOPS as f64 * 3.0 * Waveform::COLORADAR.chirp_period_s() / 2.0;

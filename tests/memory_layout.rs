@@ -32,13 +32,25 @@ fn coloradar_buffers() {
     //            + CFAR scratch 1024·4 + detections DET·12 (+ length and overflow count).
     let ws = 12 * 128 * 8 + 128 * 188 * 4 + 128 * 4 + MAX_TRAINING_CELLS * 4 + 128 * 12;
     assert_eq!(ws, 114_688);
-    assert_eq!(size_of::<p::Workspace>(), round8(ws + W + 4));
+    // (the detection list with its length and overflow count, padded to 8; the skipped-bin
+    // count)
+    let list = round8(128 * 12 + W + 4);
+    assert_eq!(size_of::<p::Workspace>(), round8(ws - 128 * 12 + list + 4));
     // Points: P · 32 + length + 6 statistics counters.
     assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 24));
-    // Configured chain: steering tables NAZ·M·8 + NEL·M·8, windows (N + K)·4, grids
-    // (NAZ + NEL)·4, optional coupling table M·N·8, and small configuration.
-    let tables = 188 * 12 * 8 + 101 * 12 * 8 + (128 + 128) * 4 + (188 + 101) * 4 + 12 * 128 * 8;
-    assert_eq!(tables, 42_212);
+    // Frontend: optional coupling table M·N·8, range window N·4, and small configuration
+    // (waveform, geometry, array layout).
+    let frontend_tables = 12 * 128 * 8 + 128 * 4;
+    assert_eq!(frontend_tables, 12_800);
+    let frontend = size_of::<p::Frontend>();
+    assert!(
+        frontend >= frontend_tables && frontend <= frontend_tables + 512,
+        "Frontend is {frontend} bytes"
+    );
+    // Configured chain: steering tables NAZ·M·8 + NEL·M·8, Doppler window K·4, grids
+    // (NAZ + NEL)·4, and small configuration.
+    let tables = 188 * 12 * 8 + 101 * 12 * 8 + 128 * 4 + (188 + 101) * 4;
+    assert_eq!(tables, 29_412);
     let dbe = size_of::<p::Dbe>();
     assert!(dbe >= tables && dbe <= tables + 512, "Dbe is {dbe} bytes");
 }
@@ -51,10 +63,15 @@ fn iwr6843_buffers() {
     assert_eq!(size_of::<p::Cube<'_>>(), round8(W + 12 * 64 + 16));
     let ws = 12 * 64 * 8 + 256 * 188 * 4 + 256 * 4 + MAX_TRAINING_CELLS * 4 + 128 * 12;
     assert_eq!(ws, 205_312);
-    assert_eq!(size_of::<p::Workspace>(), round8(ws + W + 4));
+    let list = round8(128 * 12 + W + 4);
+    assert_eq!(size_of::<p::Workspace>(), round8(ws - 128 * 12 + list + 4));
     assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 24));
-    let tables = 188 * 12 * 8 + 101 * 12 * 8 + (256 + 64) * 4 + (188 + 101) * 4 + 12 * 256 * 8;
-    assert_eq!(tables, 54_756);
+    let frontend_tables = 12 * 256 * 8 + 256 * 4;
+    assert_eq!(frontend_tables, 25_600);
+    let frontend = size_of::<p::Frontend>();
+    assert!(frontend >= frontend_tables && frontend <= frontend_tables + 512);
+    let tables = 188 * 12 * 8 + 101 * 12 * 8 + 64 * 4 + (188 + 101) * 4;
+    assert_eq!(tables, 29_156);
     let dbe = size_of::<p::Dbe>();
     assert!(dbe >= tables && dbe <= tables + 512, "Dbe is {dbe} bytes");
 }

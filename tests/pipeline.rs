@@ -5,12 +5,12 @@
 
 mod common;
 
-use common::{id, storage, synth, Target};
+use common::{dbe_for, id, storage, synth, Target};
 use dbe_radar::presets::coloradar as p;
-use dbe_radar::{AntennaGeometry, Params, Point, Waveform};
+use dbe_radar::{AntennaGeometry, Chain, Params, Point, Waveform};
 
-const AZ_STEP_DEG: f64 = 140.0 / 187.0;
-const EL_STEP_DEG: f64 = 50.0 / 100.0;
+const AZ_STEP_DEG: f64 = p::AZIMUTH_STEP_DEG as f64;
+const EL_STEP_DEG: f64 = p::ELEVATION_STEP_DEG as f64;
 
 struct Run {
     cloud: Box<p::PointCloud>,
@@ -19,7 +19,7 @@ struct Run {
 }
 
 fn run(targets: &[Target], noise: f64, seed: u64, params: Params) -> Run {
-    let dbe = p::Dbe::new(Waveform::COLORADAR, AntennaGeometry::COLORADAR, params).unwrap();
+    let (frontend, dbe) = dbe_for(Waveform::COLORADAR, AntennaGeometry::COLORADAR, params).unwrap();
     let chirps = synth::<{ p::SAMPLES }, { p::LOOPS }, { p::TX }, { p::RX }>(
         &Waveform::COLORADAR,
         &AntennaGeometry::COLORADAR,
@@ -30,11 +30,11 @@ fn run(targets: &[Target], noise: f64, seed: u64, params: Params) -> Run {
     let mut st = storage();
     let mut cube = p::Cube::new(&mut st);
     for (i, c) in chirps.iter().enumerate() {
-        dbe.push_chirp(&mut cube, id(i, p::TX), c).unwrap();
+        frontend.push_chirp(&mut cube, id(i, p::TX), c).unwrap();
     }
     let mut work = Box::new(p::Workspace::new());
     let mut cloud = Box::new(p::PointCloud::new());
-    dbe.process(&cube, &mut work, &mut cloud).unwrap();
+    dbe.process(&frontend.frame(&cube).unwrap(), &mut work, &mut cloud);
     Run { cloud, work, dbe }
 }
 
@@ -95,7 +95,7 @@ fn single_static_targets_are_recovered_within_one_grid_step() {
             }
         }
         let d = r.work.detections()[0];
-        assert_eq!(cell, (usize::from(d.range_bin), usize::from(d.azimuth_bin)));
+        assert_eq!(cell, (usize::from(d.range_bin), usize::from(d.column)));
     }
 }
 

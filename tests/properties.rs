@@ -1,10 +1,10 @@
 //! Properties of the building blocks: covariance, Capon, OS-CFAR false-alarm rate.
 
 use dbe_radar::capon::Capon;
-use dbe_radar::cfar::{detect, Detections, MAX_TRAINING_CELLS};
-use dbe_radar::config::CfarParams;
+use dbe_radar::cfar::{detect, Columns, Detections, MapShape, MAX_TRAINING_CELLS};
 use dbe_radar::covariance::{covariance, forward_backward, load_diagonal, Matrix};
 use dbe_radar::Complex32;
+use dbe_radar::{CfarKind, CfarParams};
 use rand::{Rng, SeedableRng};
 
 fn random_snapshots<const M: usize, const K: usize>(seed: u64) -> Box<[[Complex32; K]; M]> {
@@ -85,8 +85,8 @@ fn os_cfar_false_alarm_rate_on_exponential_noise() {
     const NAZ: usize = 188;
     let p = CfarParams {
         threshold_db: 8.0,
-        edge_skip_azimuth: 0,
-        ..CfarParams::DEFAULT
+        edge_skip: 0,
+        ..CfarParams::RANGE_AZIMUTH
     };
     let mut rng = rand::rngs::StdRng::seed_from_u64(3);
     let mut map = Box::new([[0.0f32; NAZ]; N]);
@@ -96,7 +96,7 @@ fn os_cfar_false_alarm_rate_on_exponential_noise() {
     // Only cells whose full training window fits are counted, so n is the same for all.
     let (wr, wa) = (
         usize::from(p.guard_range + p.train_range),
-        usize::from(p.guard_azimuth + p.train_azimuth),
+        usize::from(p.guard_cross + p.train_cross),
     );
     for _ in 0..200 {
         for row in map.iter_mut() {
@@ -104,19 +104,27 @@ fn os_cfar_false_alarm_rate_on_exponential_noise() {
                 *v = -(rng.gen_range(f32::MIN_POSITIVE..1.0)).ln();
             }
         }
-        detect(&map, &[0.0; N], 0, N - 1, &p, &mut scratch, &mut out);
+        let shape = MapShape {
+            first: 0,
+            last: N - 1,
+            columns: Columns::Truncated,
+        };
+        detect(&map, None, shape, &p, &mut scratch, &mut out);
         alarms += out
             .as_slice()
             .iter()
             .filter(|d| {
-                let (b, i) = (usize::from(d.range_bin), usize::from(d.azimuth_bin));
+                let (b, i) = (usize::from(d.range_bin), usize::from(d.column));
                 b >= wr && b + wr < N && i >= wa && i + wa < NAZ
             })
             .count();
         tested += (N - 2 * wr) * (NAZ - 2 * wa);
     }
     let n = p.full_training_cells();
-    let k = (p.quantile * n as f32).ceil() as usize;
+    let CfarKind::OrderStatistic { quantile } = p.kind else {
+        unreachable!("the DBE chain's CFAR is an OS-CFAR")
+    };
+    let k = (quantile * n as f32).ceil() as usize;
     let alpha = 10f64.powf(f64::from(p.threshold_db) / 10.0);
     let pfa: f64 = (0..k)
         .map(|i| (n - i) as f64 / ((n - i) as f64 + alpha))

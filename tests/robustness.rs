@@ -2,18 +2,25 @@
 
 mod common;
 
-use common::{id, storage};
-use dbe_radar::config::{CfarParams, Param};
+use common::{dbe_for, id, storage};
+use dbe_radar::config::Param;
 use dbe_radar::presets::coloradar as p;
-use dbe_radar::{AntennaGeometry, ChirpId, ConfigError, FrameError, Params, Waveform};
+use dbe_radar::{
+    AntennaGeometry, CfarParams, Chain, ChirpId, ConfigError, FrameError, Params, Waveform,
+};
 
-fn dbe() -> p::Dbe {
-    p::dbe().expect("defaults are valid")
+fn frontend() -> p::Frontend {
+    p::frontend().expect("defaults are valid")
 }
 
-fn feed(dbe: &p::Dbe, cube: &mut p::Cube<'_>, chirp: impl Fn(usize) -> p::Chirp) {
+fn dbe() -> p::Dbe {
+    p::dbe(&frontend()).expect("defaults are valid")
+}
+
+fn feed(frontend: &p::Frontend, cube: &mut p::Cube<'_>, chirp: impl Fn(usize) -> p::Chirp) {
     for i in 0..p::LOOPS * p::TX {
-        dbe.push_chirp(cube, id(i, p::TX), &chirp(i))
+        frontend
+            .push_chirp(cube, id(i, p::TX), &chirp(i))
             .expect("in order");
     }
 }
@@ -23,7 +30,7 @@ fn config_errors_name_the_parameter() {
     let w = Waveform::COLORADAR;
     let g = AntennaGeometry::COLORADAR;
     let d = Params::defaults(p::SAMPLES);
-    let err = |w, g, params| p::Dbe::new(w, g, params).err();
+    let err = |w, g, params| dbe_for(w, g, params).err();
     assert_eq!(
         err(
             Waveform {
@@ -62,9 +69,9 @@ fn config_errors_name_the_parameter() {
         Some(ConfigError::OutOfRange(Param::Loading))
     );
     let wide = CfarParams {
-        train_azimuth: 60,
+        train_cross: 60,
         train_range: 20,
-        ..CfarParams::DEFAULT
+        ..CfarParams::RANGE_AZIMUTH
     };
     assert_eq!(
         err(w, g, Params { cfar: wide, ..d }),
@@ -90,7 +97,7 @@ fn config_errors_name_the_parameter() {
 
 #[test]
 fn the_fixture_geometry_puts_tx1_on_the_elevation_row() {
-    let d = p::Dbe::new(
+    let (d, _) = dbe_for(
         Waveform::IWR6843_FIXTURE,
         AntennaGeometry::IWR6843_FIXTURE,
         Params::defaults(p::SAMPLES),
@@ -106,15 +113,13 @@ fn the_fixture_geometry_puts_tx1_on_the_elevation_row() {
 
 #[test]
 fn missing_repeated_and_extra_chirps_are_frame_errors() {
-    let d = dbe();
+    let f = frontend();
     let zero: p::Chirp = [[[0, 0]; p::SAMPLES]; p::RX];
     let mut st = storage();
     let mut cube = p::Cube::new(&mut st);
-    let mut work = Box::new(p::Workspace::new());
-    let mut cloud = Box::new(p::PointCloud::new());
 
     // A missing chirp (slot 1 of loop 0 skipped).
-    d.push_chirp(&mut cube, id(0, 3), &zero).unwrap();
+    f.push_chirp(&mut cube, id(0, 3), &zero).unwrap();
     let got = ChirpId {
         loop_index: 0,
         tx_slot: 2,
@@ -124,51 +129,49 @@ fn missing_repeated_and_extra_chirps_are_frame_errors() {
         tx_slot: 1,
     };
     assert_eq!(
-        d.push_chirp(&mut cube, got, &zero),
+        f.push_chirp(&mut cube, got, &zero),
         Err(FrameError::OutOfOrder { expected, got })
     );
     // The frame stays poisoned even if the right chirps follow.
-    d.push_chirp(&mut cube, expected, &zero).unwrap_err();
+    f.push_chirp(&mut cube, expected, &zero).unwrap_err();
     assert_eq!(
-        d.process(&cube, &mut work, &mut cloud),
-        Err(FrameError::OutOfOrder { expected, got })
+        f.frame(&cube).err(),
+        Some(FrameError::OutOfOrder { expected, got })
     );
 
     // A repeated chirp.
     cube.begin_frame();
-    d.push_chirp(&mut cube, id(0, 3), &zero).unwrap();
+    f.push_chirp(&mut cube, id(0, 3), &zero).unwrap();
     assert!(matches!(
-        d.push_chirp(&mut cube, id(0, 3), &zero),
+        f.push_chirp(&mut cube, id(0, 3), &zero),
         Err(FrameError::OutOfOrder { .. })
     ));
 
     // An incomplete frame.
     cube.begin_frame();
-    d.push_chirp(&mut cube, id(0, 3), &zero).unwrap();
+    f.push_chirp(&mut cube, id(0, 3), &zero).unwrap();
     assert_eq!(
-        d.process(&cube, &mut work, &mut cloud),
-        Err(FrameError::Incomplete {
+        f.frame(&cube).err(),
+        Some(FrameError::Incomplete {
             received: 1,
             expected: 384
         })
     );
-    assert_eq!(cloud.points().len(), 0);
 
     // One chirp too many.
     cube.begin_frame();
-    feed(&d, &mut cube, |_| zero);
+    feed(&f, &mut cube, |_| zero);
+    assert!(f.frame(&cube).is_ok());
     assert_eq!(
-        d.push_chirp(&mut cube, id(0, 3), &zero),
+        f.push_chirp(&mut cube, id(0, 3), &zero),
         Err(FrameError::TooManyChirps)
     );
-    assert_eq!(
-        d.process(&cube, &mut work, &mut cloud),
-        Err(FrameError::TooManyChirps)
-    );
+    assert_eq!(f.frame(&cube).err(), Some(FrameError::TooManyChirps));
 }
 
 #[test]
 fn degenerate_frames_do_not_panic() {
+    let f = frontend();
     let d = dbe();
     let mut st = storage();
     let mut cube = p::Cube::new(&mut st);
@@ -177,22 +180,22 @@ fn degenerate_frames_do_not_panic() {
     let kept = u32::from(d.params().range_last - d.params().range_first + 1);
 
     // All zero: no covariance is positive definite, every bin is skipped and counted.
-    feed(&d, &mut cube, |_| [[[0, 0]; p::SAMPLES]; p::RX]);
-    d.process(&cube, &mut work, &mut cloud).unwrap();
+    feed(&f, &mut cube, |_| [[[0, 0]; p::SAMPLES]; p::RX]);
+    d.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
     assert_eq!(cloud.stats.skipped_range_bins, kept);
     assert_eq!(cloud.points().len(), 0);
 
     // Saturated ADC (a constant is pure DC, removed before the FFT): same as zero.
     cube.begin_frame();
-    feed(&d, &mut cube, |_| {
+    feed(&f, &mut cube, |_| {
         [[[i16::MAX, i16::MIN]; p::SAMPLES]; p::RX]
     });
-    d.process(&cube, &mut work, &mut cloud).unwrap();
+    d.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
     assert_eq!(cloud.stats.skipped_range_bins, kept);
 
     // Full-scale square wave on every channel, alternating sign per chirp.
     cube.begin_frame();
-    feed(&d, &mut cube, |i| {
+    feed(&f, &mut cube, |i| {
         core::array::from_fn(|_| {
             core::array::from_fn(|n| {
                 let s = if (n / 4 + i) % 2 == 0 {
@@ -204,12 +207,12 @@ fn degenerate_frames_do_not_panic() {
             })
         })
     });
-    d.process(&cube, &mut work, &mut cloud).unwrap();
+    d.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
     assert!(cloud.stats.points as usize == cloud.points().len());
 
     // One hot antenna (TX0/RX2 only): rank-deficient covariance, loading keeps it usable.
     cube.begin_frame();
-    feed(&d, &mut cube, |i| {
+    feed(&f, &mut cube, |i| {
         core::array::from_fn(|r| {
             core::array::from_fn(|n| {
                 if i % p::TX == 0 && r == 2 {
@@ -220,7 +223,7 @@ fn degenerate_frames_do_not_panic() {
             })
         })
     });
-    d.process(&cube, &mut work, &mut cloud).unwrap();
+    d.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
     for pt in cloud.points() {
         assert!(pt.position.is_finite() && pt.power_db.is_finite() && pt.snr_db.is_finite());
     }
@@ -228,9 +231,22 @@ fn degenerate_frames_do_not_panic() {
 
 #[test]
 fn detection_and_point_capacities_overflow_gracefully() {
-    use dbe_radar::{PointCloud, Workspace};
-    let d = dbe();
-    // Many targets, room for 2 detections and 1 point.
+    use dbe_radar::{Dbe, PointCloud, Workspace};
+    let f = frontend();
+    // Room for 2 detections and 1 point.
+    let d = Dbe::<
+        { p::SAMPLES },
+        { p::LOOPS },
+        { p::TX },
+        { p::RX },
+        { p::VIRTUAL },
+        { p::AZIMUTH },
+        { p::AZIMUTH_BINS },
+        { p::ELEVATION_BINS },
+        2,
+    >::new(&f, p::params())
+    .unwrap();
+    // Many targets.
     let targets: Vec<common::Target> = (0..6)
         .map(|i| {
             common::Target::polar(
@@ -251,16 +267,16 @@ fn detection_and_point_capacities_overflow_gracefully() {
     );
     let mut st = storage();
     let mut cube = p::Cube::new(&mut st);
-    feed(&d, &mut cube, |i| chirps[i]);
+    feed(&f, &mut cube, |i| chirps[i]);
     let mut work = Box::new(Workspace::<
         { p::SAMPLES },
-        { p::VIRTUAL },
         { p::LOOPS },
+        { p::VIRTUAL },
         { p::AZIMUTH_BINS },
         2,
     >::new());
     let mut cloud = Box::new(PointCloud::<1>::new());
-    d.process(&cube, &mut work, &mut cloud).unwrap();
+    d.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
     assert_eq!(cloud.stats.detections, 2);
     assert!(cloud.stats.detection_overflow >= 4, "{:?}", cloud.stats);
     assert_eq!(cloud.points().len(), 1);
@@ -269,33 +285,64 @@ fn detection_and_point_capacities_overflow_gracefully() {
 
 #[test]
 fn in_place_configuration_matches_new_and_rejects_without_change() {
+    let mut f = Box::new(p::Frontend::unconfigured());
     let mut d = Box::new(p::Dbe::unconfigured());
     // Unconfigured: no panic, no points.
     let mut st = storage();
     let mut cube = p::Cube::new(&mut st);
     let chirp: p::Chirp = core::array::from_fn(|_| core::array::from_fn(|n| [n as i16, 7]));
-    feed(&d, &mut cube, |_| chirp);
+    feed(&f, &mut cube, |_| chirp);
     let mut work = Box::new(p::Workspace::new());
     let mut cloud = Box::new(p::PointCloud::new());
-    d.process(&cube, &mut work, &mut cloud).unwrap();
+    d.process(&f.frame(&cube).unwrap(), &mut work, &mut cloud);
     assert_eq!(cloud.points().len(), 0);
-
+    // A chain cannot be configured from an unconfigured frontend.
     let defaults = Params::defaults(p::SAMPLES);
-    d.configure(Waveform::COLORADAR, AntennaGeometry::COLORADAR, defaults)
-        .unwrap();
+    assert_eq!(
+        d.configure(&f, defaults),
+        Err(ConfigError::FrontendUnconfigured)
+    );
+
+    f.configure(
+        Waveform::COLORADAR,
+        AntennaGeometry::COLORADAR,
+        defaults.range_window,
+    )
+    .unwrap();
+    d.configure(&f, defaults).unwrap();
     let reference = dbe();
     assert_eq!(d.azimuth_grid(), reference.azimuth_grid());
-    assert_eq!(d.layout(), reference.layout());
+    assert_eq!(f.layout(), frontend().layout());
     assert_eq!(d.range_bin_m(), reference.range_bin_m());
-    // A rejected configuration leaves the chain as it was.
+    // A rejected configuration leaves the frontend and the chain as they were.
+    assert_eq!(
+        f.configure(
+            Waveform {
+                slope_hz_per_s: -1.0,
+                ..Waveform::IWR6843_FIXTURE
+            },
+            AntennaGeometry::COLORADAR,
+            defaults.range_window
+        ),
+        Err(ConfigError::OutOfRange(Param::Slope))
+    );
+    assert_eq!(f.waveform(), frontend().waveform());
     let bad = Params {
         loading: f32::NAN,
         ..defaults
     };
     assert_eq!(
-        d.configure(Waveform::IWR6843_FIXTURE, AntennaGeometry::COLORADAR, bad),
+        d.configure(&f, bad),
         Err(ConfigError::NotFinite(Param::Loading))
     );
-    assert_eq!(d.waveform(), reference.waveform());
     assert_eq!(d.params(), reference.params());
+    // A chain whose range window is not the frontend's is refused.
+    let hann = Params {
+        range_window: dbe_radar::window::WindowKind::Hann,
+        ..defaults
+    };
+    assert_eq!(
+        d.configure(&f, hann),
+        Err(ConfigError::OutOfRange(Param::RangeWindowKind))
+    );
 }

@@ -1,26 +1,30 @@
-//! dbe-radar on a Cortex-M4F: the whole DBE chain on one embedded frame, with its resource
-//! budget measured on the running image. The FFT baseline chain runs on the same frames in
-//! its own binaries (`coloradar-fft`, `iwr6843-fft`; [`fft_chain`]).
+//! dbe-radar on a Cortex-M4F: one chain on one embedded frame, with its resource budget
+//! measured on the running image.
 //!
-//! Each DBE binary (`coloradar`, `iwr6843`) declares its buffers as `static`s of its
-//! `#[entry]` function (cortex-m-rt turns them into `&'static mut`, zero or uninitialised, so
-//! in `.bss`: no heap, no global allocator, no megabyte on the stack, nothing copied from
-//! flash) and calls [`run`], which
+//! Every image (`coloradar`, `iwr6843`, `coloradar-fft`, `iwr6843-fft`) is one line,
+//! [`image!`]`(preset, chain, frame file)`, which declares the buffers as `static`s of the
+//! `#[entry]` function (cortex-m-rt turns them into `&'static mut`, zero at reset, so in
+//! `.bss`: no heap, no global allocator, no megabyte on the stack, nothing copied from flash)
+//! and calls [`run`], generic over [`dbe_radar::Chain`]. One image per chain, not both chains
+//! in one image: each image is what a product running that chain would flash, and its budget
+//! is that chain's alone (a second chain sharing the core's code would change the inliner's
+//! choices, and with them the first chain's instructions and flash). [`run`]
 //!
 //! 1. calibrates the instruction clock ([`clock`]),
-//! 2. feeds the frame chirp by chirp in TDM order through a one-chirp "DMA" buffer and
-//!    processes it with a CFAR threshold no cell passes (measurement only, see below),
-//! 3. configures the chain in place ([`dbe_radar::Dbe::configure`]), repaints the stack ([`stack`]), feeds
-//!    the frame again and processes it,
+//! 2. configures the frontend and the chain in place (setup),
+//! 3. repaints the stack ([`stack`]), feeds the frame chirp by chirp in TDM order through a
+//!    one-chirp "DMA" buffer, checks it into a [`dbe_radar::Frame`] and runs the chain's three
+//!    stages one by one, timing each,
 //! 4. prints everything as lines ([`console`]) and returns; the binary exits through
 //!    semihosting with code 0 (any error: a message and a failure code).
 //!
 //! # Output lines (space separated; the host tool parses them)
 //!
 //! ```text
-//! H preset <name> samples <N> loops <K> tx <TX> rx <RX> azimuth_bins <NAZ> elevation_bins <NEL>
+//! H preset <name> chain <dbe|fft> samples <N> loops <K> tx <TX> rx <RX> azimuth_bins <NAZ> elevation_bins <NEL>
 //! C <instructions> <ticks> <per_tick>            instruction-clock calibration
-//! D <range_bin> <azimuth_bin> <power> <level>    one CFAR detection (linear)
+//! D <range_bin> <column> <power> <level>         one CFAR detection (linear; column: azimuth
+//!                                                bin for dbe, natural Doppler bin for fft)
 //! P <range_bin> <az_bin> <el_bin> <doppler_bin> <x> <y> <z> <v> <power_db> <snr_db>
 //! F <detections> <detection_overflow> <points> <point_overflow> <skipped_range_bins> <detections_without_point>
 //! S <stage> <instructions> <ticks>               one stage's cost
@@ -30,56 +34,110 @@
 //! ```
 //!
 //! Floats are printed with `Display`, the shortest text that parses back to the same `f32`.
-//! The FFT binaries print `H … chain fft …`, `R` detections and `Q` points instead
-//! ([`fft_chain`]).
 //!
 //! # Stages
-//!
-//! The core exposes the chain as `push_chirp` + `process`, so the stages inside `process` are
-//! measured by difference on the same cube: `process` with an unreachable CFAR threshold
-//! runs stage 1 (covariances + azimuth Capon) and the CFAR with no detection; a standalone
-//! `cfar::detect` with the same threshold gives the CFAR part; `process` with the real
-//! parameters adds elevation + Doppler for every detection. The CFAR's per-detection
-//! bookkeeping (a push into the detection list) is counted under elevation + Doppler. The
-//! standalone CFAR runs with a zero loading floor (the `Workspace` keeps the real one
-//! private); the floor only decides which of two values a `max` keeps.
 //!
 //! Each interval is quantised to one tick (40 instructions); `range_fft_per_chirp` is the
 //! sum over the frame's chirps divided by their number.
 //!
 //! | stage | measured as |
 //! |---|---|
-//! | `range_fft_per_chirp` | Σ `push_chirp` / (K·TX) |
-//! | `ingest` | Σ `push_chirp` over the frame |
-//! | `azimuth_capon` | `process`(no detection) − `cfar::detect`(no detection) |
-//! | `cfar` | `cfar::detect`(no detection) |
-//! | `elevation_doppler` | `process`(real) − `process`(no detection) |
-//! | `process` | `process`(real) |
+//! | `range_fft_per_chirp`, `…_min`, `…_max` | `Frontend::push_chirp`, per chirp |
+//! | `ingest` | Σ `push_chirp` over the frame, and `Frontend::frame` |
+//! | `Chain::STAGES[0]` (`azimuth_capon` / `doppler_fft`) | `Chain::map` |
+//! | `Chain::STAGES[1]` (`cfar` / `rd_cfar`) | `Chain::detect` |
+//! | `Chain::STAGES[2]` (`elevation_doppler` / `angles`) | `Chain::points` |
+//! | `process` | the sum of the three stages |
 //! | `total` | `ingest` + `process`: one frame |
-//! | `setup` | `Dbe::configure` (once, not per frame) |
+//! | `setup` | `Frontend::configure` + `Chain::configure` (once, not per frame) |
 #![no_std]
 #![deny(unsafe_code)]
 
 pub mod clock;
 pub mod console;
-pub mod fft_chain;
 pub mod stack;
-
-pub use fft_chain::{run_fft, FftBuffers};
 
 use core::fmt;
 
-use dbe_radar::cfar::{self, Detections, MAX_TRAINING_CELLS};
 use dbe_radar::cube::CubeStorage;
 use dbe_radar::{
-    AntennaGeometry, ChirpId, ConfigError, Cube, Dbe, FrameError, Params, PointCloud, Waveform,
-    Workspace,
+    AntennaGeometry, Chain, ChirpId, ConfigError, Cube, FrameError, Frontend, PointCloud, Waveform,
 };
 
 use console::Console;
 
-/// CFAR threshold that no cell of a Capon map passes (α = 10³⁰): the "no detection" run.
-const NO_DETECTION_DB: f32 = 300.0;
+/// Declare one firmware image: `image!(preset, Chain, "frame file")` runs chain `Chain` of
+/// `dbe_radar::presets::preset` (`Dbe` or `FftChain`, with the preset's default parameters) on
+/// the frame `build.rs` wrote to `OUT_DIR` under that name.
+#[macro_export]
+macro_rules! image {
+    ($preset:ident, $chain:ident, $params:ident, $frame:literal) => {
+        use cortex_m_semihosting::debug;
+        use dbe_radar::presets::$preset as p;
+        use panic_semihosting as _;
+
+        /// Bytes of one frame: the array type makes a wrong-sized file a compile error.
+        const FRAME_BYTES: usize = p::LOOPS * p::TX * p::RX * p::SAMPLES * 4;
+
+        /// The embedded frame, written to `OUT_DIR` by `build.rs`.
+        static FRAME: [u8; FRAME_BYTES] = *include_bytes!(concat!(env!("OUT_DIR"), "/", $frame));
+
+        #[cortex_m_rt::entry]
+        fn main() -> ! {
+            // cortex-m-rt hands each of these out once as `&'static mut`; all are zero at
+            // reset, so they live in `.bss`: nothing is copied from flash and nothing big
+            // touches the stack.
+            static mut FRONTEND: p::Frontend = p::Frontend::unconfigured();
+            static mut CHAIN: p::$chain = p::$chain::unconfigured();
+            static mut CUBE: p::CubeStorage = dbe_radar::cube::zero_storage();
+            static mut DMA_CHIRP: p::Chirp = [[[0; 2]; p::SAMPLES]; p::RX];
+            static mut WORKSPACE: <p::$chain as dbe_radar::Chain<
+                { p::SAMPLES },
+                { p::LOOPS },
+                { p::TX },
+                { p::RX },
+                { p::VIRTUAL },
+                { p::AZIMUTH },
+            >>::Workspace = <<p::$chain as dbe_radar::Chain<
+                { p::SAMPLES },
+                { p::LOOPS },
+                { p::TX },
+                { p::RX },
+                { p::VIRTUAL },
+                { p::AZIMUTH },
+            >>::Workspace>::new();
+            static mut CLOUD: p::PointCloud = p::PointCloud::new();
+
+            let mut con = $crate::console::Console::open();
+            let preset = $crate::Preset {
+                name: stringify!($preset),
+                waveform: p::WAVEFORM,
+                geometry: p::GEOMETRY,
+                frame: &FRAME,
+                azimuth_bins: p::AZIMUTH_BINS,
+                elevation_bins: p::ELEVATION_BINS,
+            };
+            let buffers = $crate::Buffers {
+                frontend: FRONTEND,
+                chain: CHAIN,
+                cube: CUBE,
+                dma: DMA_CHIRP,
+                work: WORKSPACE,
+                cloud: CLOUD,
+            };
+            match $crate::run(&mut con, &preset, p::$params(), buffers) {
+                Ok(()) => debug::exit(debug::EXIT_SUCCESS),
+                Err(e) => {
+                    $crate::say!(con, "X {e}");
+                    debug::exit(debug::EXIT_FAILURE);
+                }
+            }
+            loop {
+                cortex_m::asm::wfi();
+            }
+        }
+    };
+}
 
 /// One preset's fixed inputs.
 pub struct Preset<const TX: usize, const RX: usize> {
@@ -91,9 +149,13 @@ pub struct Preset<const TX: usize, const RX: usize> {
     pub geometry: AntennaGeometry<TX, RX>,
     /// The embedded frame: loop → TX slot → RX → sample, `[I, Q]` int16 little-endian.
     pub frame: &'static [u8],
+    /// Azimuth grid bins (printed in the header).
+    pub azimuth_bins: usize,
+    /// Elevation grid bins (printed in the header).
+    pub elevation_bins: usize,
 }
 
-/// The `'static` buffers a binary owns, one `static` each so the ELF names every one.
+/// The `'static` buffers an image owns, one `static` each so the ELF names every one.
 pub struct Buffers<
     'a,
     const N: usize,
@@ -102,20 +164,19 @@ pub struct Buffers<
     const RX: usize,
     const M: usize,
     const AZ: usize,
-    const NAZ: usize,
-    const NEL: usize,
-    const DET: usize,
     const P: usize,
+    C: Chain<N, K, TX, RX, M, AZ>,
 > {
-    /// The chain, `Dbe::unconfigured()` (all-zero bytes, so its `static` is in `.bss`),
-    /// configured in place at run time.
-    pub dbe: &'a mut Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>,
+    /// The frontend, unconfigured (all-zero bytes, so in `.bss`), configured at run time.
+    pub frontend: &'a mut Frontend<N, K, TX, RX, M, AZ>,
+    /// The chain, unconfigured, configured in place at run time.
+    pub chain: &'a mut C,
     /// Radar cube storage.
-    pub cube: &'a mut CubeStorage<N, M, K>,
+    pub cube: &'a mut CubeStorage<N, K, M>,
     /// The one-chirp buffer a DMA would fill.
     pub dma: &'a mut [[[i16; 2]; N]; RX],
     /// Per-frame workspace.
-    pub work: &'a mut Workspace<N, M, K, NAZ, DET>,
+    pub work: &'a mut C::Workspace,
     /// Output points.
     pub cloud: &'a mut PointCloud<P>,
 }
@@ -130,14 +191,12 @@ pub enum Failure {
         /// Bytes embedded.
         found: usize,
     },
-    /// The chain (`Dbe::configure`, `FftChain::new`) rejected the configuration.
+    /// The frontend or the chain rejected the configuration.
     Config(ConfigError),
-    /// Ingestion or processing rejected the frame.
+    /// Ingestion rejected the frame.
     Frame(FrameError),
     /// The instruction clock does not count whole instructions per tick.
     Clock(clock::Calibration),
-    /// The "no detection" run detected something: its stage split would be wrong.
-    DetectionsInSilentRun(u32),
 }
 
 impl fmt::Display for Failure {
@@ -154,10 +213,6 @@ impl fmt::Display for Failure {
             ),
             Failure::Config(e) => write!(f, "configuration rejected: {e}"),
             Failure::Frame(e) => write!(f, "frame rejected: {e}"),
-            Failure::DetectionsInSilentRun(n) => write!(
-                f,
-                "{n} detections with a {NO_DETECTION_DB} dB CFAR threshold: stage split invalid"
-            ),
         }
     }
 }
@@ -193,26 +248,26 @@ fn load_chirp<const N: usize, const TX: usize, const RX: usize>(
     }
 }
 
-/// Configure the chain in place (`Dbe::configure`: no chain-sized value on the stack). Never
+/// Configure the frontend and the chain in place (no chain-sized value on the stack). Never
 /// inlined, so its temporaries belong to a frame popped before the per-frame work.
 #[inline(never)]
 fn configure<
-    's,
     const N: usize,
     const K: usize,
     const TX: usize,
     const RX: usize,
     const M: usize,
     const AZ: usize,
-    const NAZ: usize,
-    const NEL: usize,
+    C: Chain<N, K, TX, RX, M, AZ>,
 >(
-    dbe: &'s mut Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>,
+    frontend: &mut Frontend<N, K, TX, RX, M, AZ>,
+    chain: &mut C,
     preset: &Preset<TX, RX>,
-    params: Params,
-) -> Result<&'s mut Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>, ConfigError> {
-    dbe.configure(preset.waveform, preset.geometry, params)?;
-    Ok(dbe)
+    params: C::Params,
+    range_window: dbe_radar::window::WindowKind,
+) -> Result<(), ConfigError> {
+    frontend.configure(preset.waveform, preset.geometry, range_window)?;
+    chain.configure(frontend, params)
 }
 
 /// Ticks of a whole frame's ingestion, fed chirp by chirp.
@@ -229,11 +284,9 @@ fn ingest<
     const RX: usize,
     const M: usize,
     const AZ: usize,
-    const NAZ: usize,
-    const NEL: usize,
 >(
-    dbe: &Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>,
-    cube: &mut Cube<'_, N, M, K>,
+    frontend: &Frontend<N, K, TX, RX, M, AZ>,
+    cube: &mut Cube<'_, N, K, M>,
     dma: &mut [[[i16; 2]; N]; RX],
     frame: &[u8],
 ) -> Result<Ingest, FrameError> {
@@ -250,7 +303,7 @@ fn ingest<
                 loop_index: k as u16,
                 tx_slot: t as u8,
             };
-            let (dt, r) = clock::time(|| dbe.push_chirp(cube, id, dma));
+            let (dt, r) = clock::time(|| frontend.push_chirp(cube, id, dma));
             r?;
             total.ticks += u64::from(dt);
             total.chirp_min = total.chirp_min.min(dt);
@@ -260,62 +313,26 @@ fn ingest<
     Ok(total)
 }
 
-/// The stage split (module docs): ticks of `process` with `silent` parameters (a threshold no
-/// cell passes), and of `cfar::detect` alone with that threshold on the map it left. Never
-/// inlined: the CFAR's scratch, floor and detection list (measurement only) live in this
-/// frame, popped before the per-frame stack is measured, so they add nothing to static RAM.
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn silent_split<
-    const N: usize,
-    const K: usize,
-    const TX: usize,
-    const RX: usize,
-    const M: usize,
-    const AZ: usize,
-    const NAZ: usize,
-    const NEL: usize,
-    const DET: usize,
-    const P: usize,
->(
-    dbe: &Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>,
-    silent: &Params,
-    cube: &mut Cube<'_, N, M, K>,
-    dma: &mut [[[i16; 2]; N]; RX],
-    work: &mut Workspace<N, M, K, NAZ, DET>,
-    cloud: &mut PointCloud<P>,
-    frame: &[u8],
-) -> Result<(u32, u32), Failure> {
-    ingest(dbe, cube, dma, frame)?;
-    let (t_silent, r) = clock::time(|| dbe.process(cube, work, cloud));
-    r?;
-    if cloud.stats.detections != 0 {
-        return Err(Failure::DetectionsInSilentRun(cloud.stats.detections));
-    }
-    let mut scratch = [0.0f32; MAX_TRAINING_CELLS];
-    let floor = [0.0f32; N];
-    let mut detections = Detections::<DET>::new();
-    let first = usize::from(silent.range_first);
-    let last = usize::from(silent.range_last).min(N - 1);
-    let (t_cfar, ()) = clock::time(|| {
-        cfar::detect(
-            work.range_azimuth(),
-            &floor,
-            first,
-            last,
-            &silent.cfar,
-            &mut scratch,
-            &mut detections,
-        )
-    });
-    let n = detections.as_slice().len() as u32;
-    if n != 0 {
-        return Err(Failure::DetectionsInSilentRun(n));
-    }
-    Ok((t_silent, t_cfar))
+/// The range window of a chain's parameters (both chains carry the frontend's).
+pub trait RangeWindow {
+    /// The range window the frontend must use.
+    fn range_window(&self) -> dbe_radar::window::WindowKind;
 }
 
-/// Process the preset's frame, print points, stats and the measured budget.
+impl RangeWindow for dbe_radar::Params {
+    fn range_window(&self) -> dbe_radar::window::WindowKind {
+        self.range_window
+    }
+}
+
+impl RangeWindow for dbe_radar::FftParams {
+    fn range_window(&self) -> dbe_radar::window::WindowKind {
+        self.range_window
+    }
+}
+
+/// Configure, process the preset's frame stage by stage, print points, stats and the
+/// measured budget.
 pub fn run<
     const N: usize,
     const K: usize,
@@ -323,15 +340,17 @@ pub fn run<
     const RX: usize,
     const M: usize,
     const AZ: usize,
-    const NAZ: usize,
-    const NEL: usize,
-    const DET: usize,
     const P: usize,
+    C: Chain<N, K, TX, RX, M, AZ>,
 >(
     con: &mut Console,
     preset: &Preset<TX, RX>,
-    b: Buffers<'_, N, K, TX, RX, M, AZ, NAZ, NEL, DET, P>,
-) -> Result<(), Failure> {
+    params: C::Params,
+    b: Buffers<'_, N, K, TX, RX, M, AZ, P, C>,
+) -> Result<(), Failure>
+where
+    C::Params: RangeWindow,
+{
     let expected = N * K * TX * RX * 4;
     if preset.frame.len() != expected {
         return Err(Failure::FrameSize {
@@ -346,48 +365,38 @@ pub fn run<
         return Err(Failure::Clock(cal));
     }
 
-    let params = Params::defaults(N);
-
-    // Measurement only: the chain with a threshold no cell passes.
-    let mut silent = params;
-    silent.cfar.threshold_db = NO_DETECTION_DB;
-    let (t_silent, t_cfar) = {
-        let dbe = configure(b.dbe, preset, silent)?;
-        let mut cube = Cube::new(&mut *b.cube);
-        silent_split(
-            dbe,
-            &silent,
-            &mut cube,
-            b.dma,
-            b.work,
-            b.cloud,
-            preset.frame,
-        )?
-    };
-
-    // The real chain: setup, then one frame on a freshly painted stack.
-    let (t_setup, dbe) = clock::time(|| configure(b.dbe, preset, params));
-    let dbe = dbe?;
+    // Setup, then one frame on a freshly painted stack, each stage timed on its own.
+    let window = params.range_window();
+    let (t_setup, r) = clock::time(|| configure(b.frontend, b.chain, preset, params, window));
+    r?;
+    let (frontend, chain) = (&*b.frontend, &*b.chain);
     let stack_setup = stack::peak_bytes();
     stack::repaint();
     let mut cube = Cube::new(&mut *b.cube);
-    let ingest = ingest(dbe, &mut cube, b.dma, preset.frame)?;
-    let (t_full, r) = clock::time(|| dbe.process(&cube, b.work, b.cloud));
-    r?;
+    let mut ingest = ingest(frontend, &mut cube, b.dma, preset.frame)?;
+    let (t_check, frame) = clock::time(|| frontend.frame(&cube));
+    let frame = frame?;
+    ingest.ticks += u64::from(t_check);
+    let (t_map, ()) = clock::time(|| chain.map(&frame, b.work));
+    let (t_detect, ()) = clock::time(|| chain.detect(b.work));
+    let (t_points, ()) = clock::time(|| chain.points(&frame, b.work, b.cloud));
     let stack_frame = stack::peak_bytes();
 
     say!(
         con,
-        "H preset {} samples {N} loops {K} tx {TX} rx {RX} azimuth_bins {NAZ} elevation_bins {NEL}",
-        preset.name
+        "H preset {} chain {} samples {N} loops {K} tx {TX} rx {RX} azimuth_bins {} elevation_bins {}",
+        preset.name,
+        C::NAME,
+        preset.azimuth_bins,
+        preset.elevation_bins
     );
     say!(con, "C {} {} {}", cal.instructions, cal.ticks, cal.per_tick);
-    for d in b.work.detections() {
+    for d in C::detections(b.work) {
         say!(
             con,
             "D {} {} {} {}",
             d.range_bin,
-            d.azimuth_bin,
+            d.column,
             d.power,
             d.level
         );
@@ -421,23 +430,30 @@ pub fn run<
     );
 
     let chirps = (K * TX) as u64;
-    let (t_silent, t_cfar, t_full) = (u64::from(t_silent), u64::from(t_cfar), u64::from(t_full));
-    let i = |ticks: u64| (cal.instructions(ticks), ticks);
+    let i = |ticks: u32| (cal.instructions(u64::from(ticks)), u64::from(ticks));
     let per_chirp = (
         cal.instructions(ingest.ticks) / chirps,
         ingest.ticks / chirps,
     );
+    let process = u64::from(t_map) + u64::from(t_detect) + u64::from(t_points);
+    let [map, detect, points] = C::STAGES;
     let stages: [(&str, (u64, u64)); 10] = [
-        ("setup", i(u64::from(t_setup))),
+        ("setup", i(t_setup)),
         ("range_fft_per_chirp", per_chirp),
-        ("range_fft_chirp_min", i(u64::from(ingest.chirp_min))),
-        ("range_fft_chirp_max", i(u64::from(ingest.chirp_max))),
-        ("ingest", i(ingest.ticks)),
-        ("azimuth_capon", i(t_silent.saturating_sub(t_cfar))),
-        ("cfar", i(t_cfar)),
-        ("elevation_doppler", i(t_full.saturating_sub(t_silent))),
-        ("process", i(t_full)),
-        ("total", i(ingest.ticks + t_full)),
+        ("range_fft_chirp_min", i(ingest.chirp_min)),
+        ("range_fft_chirp_max", i(ingest.chirp_max)),
+        ("ingest", (cal.instructions(ingest.ticks), ingest.ticks)),
+        (map, i(t_map)),
+        (detect, i(t_detect)),
+        (points, i(t_points)),
+        ("process", (cal.instructions(process), process)),
+        (
+            "total",
+            (
+                cal.instructions(ingest.ticks + process),
+                ingest.ticks + process,
+            ),
+        ),
     ];
     for (name, (instructions, ticks)) in stages {
         say!(con, "S {name} {instructions} {ticks}");

@@ -1,17 +1,16 @@
 //! Running the core (`dbe_radar`) on host data, as the firmware would: chirp by chirp.
 //!
 //! The core's array sizes are compile-time constants, so a sensor must match one of the
-//! compiled [`Preset`]s. A [`CoreRunner`] holds the configured chain and its heap-allocated
-//! cube, workspace and point cloud (megabyte-sized values never touch a thread's stack), and
+//! compiled [`Preset`]s. A [`CoreRunner`] holds the configured frontend and chain (any
+//! [`dbe_radar::Chain`]) and their heap-allocated cube, workspace and point cloud (megabyte-sized values never touch a thread's stack), and
 //! turns one [`AdcFrame`] into a [`CoreOutput`].
 
 use std::fmt;
 
-use dbe_radar::cfar::Detection;
 use dbe_radar::cube::CubeStorage;
-use dbe_radar::fft_pipeline::{FftChain, FftParams, FftWorkspace};
-use dbe_radar::{ChirpId, Complex32, ConfigError, Cube, Dbe, FrameError, FrameStats, Params};
-use dbe_radar::{PointCloud, Workspace};
+use dbe_radar::Chain as DbeChain;
+use dbe_radar::{ChirpId, Complex32, ConfigError, Cube, Dbe, Detection, FrameError, FrameStats};
+use dbe_radar::{FftChain, FftParams, FftWorkspace, Frontend, Params, PointCloud, Workspace};
 
 use crate::cloud::PointRecord;
 use crate::frame::AdcFrame;
@@ -185,29 +184,27 @@ pub struct CoreOutput {
     pub detections: Vec<Detection>,
 }
 
-/// The chain and its buffers for one preset's sizes.
-struct Engine<
+/// What the host runner needs of a chain beyond [`dbe_radar::Chain`]: building it from the
+/// DBE parameters, a heap workspace, and the maps and detections a [`CoreOutput`] reports.
+trait HostChain<
     const N: usize,
     const K: usize,
     const TX: usize,
     const RX: usize,
     const M: usize,
     const AZ: usize,
-    const NAZ: usize,
-    const NEL: usize,
-    const DET: usize,
-    const P: usize,
-> {
-    dbe: Dbe<N, K, TX, RX, M, AZ, NAZ, NEL>,
-    /// The FFT chain and its workspace, when selected.
-    fft: Option<(
-        Box<FftChain<N, K, TX, RX, M, AZ, NAZ, NEL>>,
-        Box<FftWorkspace<N, M, K, DET>>,
-    )>,
-    storage: Box<CubeStorage<N, M, K>>,
-    work: Box<Workspace<N, M, K, NAZ, DET>>,
-    cloud: Box<PointCloud<P>>,
-    chirp: Box<[[[i16; 2]; N]; RX]>,
+>: DbeChain<N, K, TX, RX, M, AZ> + Sized
+{
+    /// The chain for frames of `frontend`, configured from the DBE parameters.
+    fn build(
+        frontend: &Frontend<N, K, TX, RX, M, AZ>,
+        params: &Params,
+    ) -> Result<Box<Self>, ConfigError>;
+    /// A zeroed workspace on the heap.
+    fn workspace() -> Box<Self::Workspace>;
+    /// The range–azimuth map and its detections (DBE chain), or nothing (FFT chain, whose
+    /// detections live on the range–Doppler map).
+    fn inspect(work: &Self::Workspace) -> (Vec<Vec<f32>>, Vec<Detection>);
 }
 
 impl<
@@ -220,14 +217,92 @@ impl<
         const NAZ: usize,
         const NEL: usize,
         const DET: usize,
+    > HostChain<N, K, TX, RX, M, AZ> for Dbe<N, K, TX, RX, M, AZ, NAZ, NEL, DET>
+{
+    fn build(
+        frontend: &Frontend<N, K, TX, RX, M, AZ>,
+        params: &Params,
+    ) -> Result<Box<Self>, ConfigError> {
+        let mut chain = Box::new(Self::unconfigured());
+        chain.configure(frontend, *params)?;
+        Ok(chain)
+    }
+
+    fn workspace() -> Box<Self::Workspace> {
+        Box::new(Workspace::new())
+    }
+
+    fn inspect(work: &Self::Workspace) -> (Vec<Vec<f32>>, Vec<Detection>) {
+        let ra = work.range_azimuth().iter().map(|r| r.to_vec()).collect();
+        (ra, work.detections().to_vec())
+    }
+}
+
+impl<
+        const N: usize,
+        const K: usize,
+        const TX: usize,
+        const RX: usize,
+        const M: usize,
+        const AZ: usize,
+        const NAZ: usize,
+        const NEL: usize,
+        const DET: usize,
+    > HostChain<N, K, TX, RX, M, AZ> for FftChain<N, K, TX, RX, M, AZ, NAZ, NEL, DET>
+{
+    fn build(
+        frontend: &Frontend<N, K, TX, RX, M, AZ>,
+        params: &Params,
+    ) -> Result<Box<Self>, ConfigError> {
+        let mut chain = Box::new(Self::unconfigured());
+        chain.configure(frontend, FftParams::from_dbe(params))?;
+        Ok(chain)
+    }
+
+    fn workspace() -> Box<Self::Workspace> {
+        Box::new(FftWorkspace::new())
+    }
+
+    fn inspect(_: &Self::Workspace) -> (Vec<Vec<f32>>, Vec<Detection>) {
+        (Vec::new(), Vec::new())
+    }
+}
+
+/// The frontend, one chain and their buffers for one preset's sizes.
+struct Engine<
+    const N: usize,
+    const K: usize,
+    const TX: usize,
+    const RX: usize,
+    const M: usize,
+    const AZ: usize,
+    const P: usize,
+    C: HostChain<N, K, TX, RX, M, AZ>,
+> {
+    frontend: Box<Frontend<N, K, TX, RX, M, AZ>>,
+    chain: Box<C>,
+    params: Params,
+    storage: Box<CubeStorage<N, K, M>>,
+    work: Box<C::Workspace>,
+    cloud: Box<PointCloud<P>>,
+    chirp: Box<[[[i16; 2]; N]; RX]>,
+}
+
+impl<
+        const N: usize,
+        const K: usize,
+        const TX: usize,
+        const RX: usize,
+        const M: usize,
+        const AZ: usize,
         const P: usize,
-    > Engine<N, K, TX, RX, M, AZ, NAZ, NEL, DET, P>
+        C: HostChain<N, K, TX, RX, M, AZ>,
+    > Engine<N, K, TX, RX, M, AZ, P, C>
 {
     fn new(
         preset: Preset,
         sensor: &SensorConfig,
         params: Params,
-        chain: Chain,
     ) -> Result<Box<Self>, CoreRunError> {
         let geometry_error = CoreRunError::Geometry {
             preset,
@@ -244,10 +319,12 @@ impl<
             f_design_hz: sensor.f_design_hz,
         };
         let config = |source| CoreRunError::Config { preset, source };
-        let mut dbe = Dbe::new(sensor.waveform, geometry, params).map_err(config)?;
-        // The coupling table in the core's data order `[tx][rx]`, one slice per channel.
-        let mut table: Vec<&[Complex32]> = Vec::new();
+        let mut frontend = Box::new(Frontend::unconfigured());
+        frontend
+            .configure(sensor.waveform, geometry, params.range_window)
+            .map_err(config)?;
         if let Some(c) = &sensor.coupling {
+            // The coupling table in the core's data order `[tx][rx]`, one slice per channel.
             let expected = TX * RX * c.range_bins;
             if c.data.len() != expected {
                 return Err(CoreRunError::CouplingSize {
@@ -255,39 +332,24 @@ impl<
                     found: c.data.len(),
                 });
             }
-            table = c.data.chunks(c.range_bins.max(1)).collect();
+            let table: Vec<&[Complex32]> = c.data.chunks(c.range_bins.max(1)).collect();
+            let per_tx: [[&[Complex32]; RX]; TX] = core::array::from_fn(|t| {
+                core::array::from_fn(|r| table.get(t * RX + r).copied().unwrap_or(&[]))
+            });
+            frontend.set_coupling(&per_tx).map_err(config)?;
         }
-        let per_tx: [[&[Complex32]; RX]; TX] = core::array::from_fn(|t| {
-            core::array::from_fn(|r| table.get(t * RX + r).copied().unwrap_or(&[]))
-        });
-        if sensor.coupling.is_some() {
-            dbe.set_coupling(&per_tx).map_err(config)?;
-        }
-        let fft = match chain {
-            Chain::Dbe => None,
-            Chain::Fft => {
-                let mut fft = FftChain::new(
-                    sensor.waveform,
-                    *dbe.geometry(),
-                    FftParams::from_dbe(&params),
-                )
-                .map_err(config)?;
-                if sensor.coupling.is_some() {
-                    fft = fft.with_coupling(&per_tx).map_err(config)?;
-                }
-                Some((Box::new(fft), Box::new(FftWorkspace::new())))
-            }
-        };
-        let storage: Box<CubeStorage<N, M, K>> =
+        let chain = C::build(&frontend, &params).map_err(config)?;
+        let storage: Box<CubeStorage<N, K, M>> =
             match vec![[[[0; 2]; K]; M]; N].into_boxed_slice().try_into() {
                 Ok(storage) => storage,
                 Err(_) => unreachable!("vec![_; N] holds exactly N range bins"),
             };
         Ok(Box::new(Self {
-            dbe,
-            fft,
+            frontend,
+            chain,
+            params,
             storage,
-            work: Box::new(Workspace::new()),
+            work: C::workspace(),
             cloud: Box::new(PointCloud::new()),
             chirp: Box::new([[[0; 2]; N]; RX]),
         }))
@@ -305,41 +367,27 @@ impl<
                     loop_index: k as u16,
                     tx_slot: t as u8,
                 };
-                // Both chains ingest identically (`range::ingest`).
-                self.dbe
+                self.frontend
                     .push_chirp(&mut cube, id, &self.chirp)
                     .map_err(CoreRunError::Frame)?;
             }
         }
-        if let Some((fft, work)) = &mut self.fft {
-            fft.process(&cube, work, &mut self.cloud)
-                .map_err(CoreRunError::Frame)?;
-            return Ok(CoreOutput {
-                points: self.cloud.points().iter().map(PointRecord::from).collect(),
-                stats: self.cloud.stats,
-                ra_map: Vec::new(),
-                detections: Vec::new(),
-            });
-        }
-        self.dbe
-            .process(&cube, &mut self.work, &mut self.cloud)
-            .map_err(CoreRunError::Frame)?;
+        let checked = self.frontend.frame(&cube).map_err(CoreRunError::Frame)?;
+        self.chain
+            .process(&checked, &mut self.work, &mut self.cloud);
+        let (ra_map, detections) = C::inspect(&self.work);
         Ok(CoreOutput {
             points: self.cloud.points().iter().map(PointRecord::from).collect(),
             stats: self.cloud.stats,
-            ra_map: self
-                .work
-                .range_azimuth()
-                .iter()
-                .map(|r| r.to_vec())
-                .collect(),
-            detections: self.work.detections().to_vec(),
+            ra_map,
+            detections,
         })
     }
 }
 
+/// The engine of preset module `$p` running chain type `$chain` of that module.
 macro_rules! preset_engine {
-    ($p:ident) => {
+    ($p:ident, $chain:ident) => {
         Engine<
             { dbe_radar::presets::$p::SAMPLES },
             { dbe_radar::presets::$p::LOOPS },
@@ -347,20 +395,29 @@ macro_rules! preset_engine {
             { dbe_radar::presets::$p::RX },
             { dbe_radar::presets::$p::VIRTUAL },
             { dbe_radar::presets::$p::AZIMUTH },
-            { dbe_radar::presets::$p::AZIMUTH_BINS },
-            { dbe_radar::presets::$p::ELEVATION_BINS },
-            { dbe_radar::presets::$p::DETECTIONS },
             { dbe_radar::presets::$p::POINTS },
+            dbe_radar::presets::$p::$chain,
         >
     };
 }
 
-type ColoRadarEngine = preset_engine!(coloradar);
-type Iwr6843Engine = preset_engine!(iwr6843);
-
 enum Engines {
-    ColoRadar(Box<ColoRadarEngine>),
-    Iwr6843(Box<Iwr6843Engine>),
+    ColoRadar(Box<preset_engine!(coloradar, Dbe)>),
+    ColoRadarFft(Box<preset_engine!(coloradar, FftChain)>),
+    Iwr6843(Box<preset_engine!(iwr6843, Dbe)>),
+    Iwr6843Fft(Box<preset_engine!(iwr6843, FftChain)>),
+}
+
+/// Run `$body` with `$e` bound to whichever engine `$engines` holds.
+macro_rules! with_engine {
+    ($engines:expr, $e:ident => $body:expr) => {
+        match $engines {
+            Engines::ColoRadar($e) => $body,
+            Engines::ColoRadarFft($e) => $body,
+            Engines::Iwr6843($e) => $body,
+            Engines::Iwr6843Fft($e) => $body,
+        }
+    };
 }
 
 /// The core configured for one sensor, with its buffers on the heap.
@@ -391,9 +448,17 @@ impl CoreRunner {
         chain: Chain,
     ) -> Result<Self, CoreRunError> {
         let preset = Preset::for_sensor(sensor)?;
-        let engine = match preset {
-            Preset::ColoRadar => Engines::ColoRadar(Engine::new(preset, sensor, params, chain)?),
-            Preset::Iwr6843 => Engines::Iwr6843(Engine::new(preset, sensor, params, chain)?),
+        let engine = match (preset, chain) {
+            (Preset::ColoRadar, Chain::Dbe) => {
+                Engines::ColoRadar(Engine::new(preset, sensor, params)?)
+            }
+            (Preset::ColoRadar, Chain::Fft) => {
+                Engines::ColoRadarFft(Engine::new(preset, sensor, params)?)
+            }
+            (Preset::Iwr6843, Chain::Dbe) => Engines::Iwr6843(Engine::new(preset, sensor, params)?),
+            (Preset::Iwr6843, Chain::Fft) => {
+                Engines::Iwr6843Fft(Engine::new(preset, sensor, params)?)
+            }
         };
         Ok(Self { preset, engine })
     }
@@ -405,10 +470,7 @@ impl CoreRunner {
 
     /// The processing parameters.
     pub fn params(&self) -> &Params {
-        match &self.engine {
-            Engines::ColoRadar(e) => e.dbe.params(),
-            Engines::Iwr6843(e) => e.dbe.params(),
-        }
+        with_engine!(&self.engine, e => &e.params)
     }
 
     /// Feed `frame` chirp by chirp in TDM order (loop 0 slot 0, loop 0 slot 1, …) through
@@ -425,10 +487,7 @@ impl CoreRunner {
                 len: frame.data.len(),
             });
         }
-        match &mut self.engine {
-            Engines::ColoRadar(e) => e.process(frame),
-            Engines::Iwr6843(e) => e.process(frame),
-        }
+        with_engine!(&mut self.engine, e => e.process(frame))
     }
 }
 

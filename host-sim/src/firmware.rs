@@ -17,9 +17,8 @@
 //! `coloradar-fft` and `iwr6843-fft` the FFT baseline chain on the same embedded frame. Each
 //! is measured on its own and is one entry of the budget (`preset` is the image's name,
 //! `chain` the chain), so the FFT chain never changes a DBE figure. Both chains ingest with
-//! the same core code (`range::ingest`) into the same `Cube` type; what the FFT chain adds to
-//! a DBE image running both on one cube is its `FFT_CHAIN` and `FFT_WORKSPACE` statics and
-//! its `process` stage.
+//! the same `Frontend` into the same `Cube`; what the FFT chain adds to a DBE image running
+//! both on one cube is its `CHAIN` and `WORKSPACE` statics and its `process` stage.
 //!
 //! # Instruction counts
 //!
@@ -600,31 +599,10 @@ pub fn run(layout: &Layout, image: Image, board: Board) -> Result<String, Firmwa
 // ---------------------------------------------------------------------------------------------
 // Output
 
-/// One CFAR detection as the firmware printed it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FwDetection {
-    /// Range bin.
-    pub range_bin: u16,
-    /// Azimuth bin.
-    pub azimuth_bin: u16,
-    /// Range–azimuth power, linear.
-    pub power: f32,
-    /// CFAR level, linear.
-    pub level: f32,
-}
-
-/// One range–Doppler CFAR detection of the FFT chain as the firmware printed it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FwRdDetection {
-    /// Range bin.
-    pub range_bin: u16,
-    /// Signed Doppler bin.
-    pub doppler_bin: i16,
-    /// Range–Doppler power, linear.
-    pub power: f32,
-    /// CFAR noise level, linear.
-    pub level: f32,
-}
+/// One CFAR detection as the firmware printed it (`D` line): the core's
+/// [`dbe_radar::Detection`], whose `column` is the azimuth bin (DBE chain) or the natural
+/// Doppler FFT bin (FFT chain).
+pub type FwDetection = dbe_radar::Detection;
 
 /// Everything one firmware run printed.
 #[derive(Clone, Debug, PartialEq)]
@@ -637,12 +615,10 @@ pub struct FirmwareRun {
     pub sizes: (usize, usize, usize, usize),
     /// Instructions per tick of the instruction clock, from the calibration.
     pub instructions_per_tick: u64,
-    /// CFAR detections on the range–azimuth map (`D` lines, DBE chain).
+    /// CFAR detections (`D` lines): on the range–azimuth map (DBE chain) or the range–Doppler
+    /// map (FFT chain).
     pub detections: Vec<FwDetection>,
-    /// CFAR detections on the range–Doppler map (`R` lines, FFT chain).
-    pub rd_detections: Vec<FwRdDetection>,
-    /// Points (`P` lines of the DBE chain, `Q` lines of the FFT chain), `f32` values widened
-    /// exactly to `f64`.
+    /// Points (`P` lines), `f32` values widened exactly to `f64`.
     pub points: Vec<PointRecord>,
     /// Frame statistics.
     pub stats: FrameStats,
@@ -671,7 +647,7 @@ fn field<T: std::str::FromStr>(
         })
 }
 
-/// A point line (`P` or `Q`): ten fields after the tag.
+/// A point line (`P`): ten fields after the tag.
 fn parse_point(t: &[&str], line: usize) -> Result<PointRecord, FirmwareError> {
     if t.len() != 11 {
         return Err(FirmwareError::Output {
@@ -694,10 +670,8 @@ fn parse_point(t: &[&str], line: usize) -> Result<PointRecord, FirmwareError> {
     })
 }
 
-/// Parse the firmware's output (format: `firmware/src/lib.rs`, and `firmware/src/fft_chain.rs`
-/// for the FFT images). Fails unless the run printed its header, calibration, statistics and
-/// stages and ended with `E ok`, or when it mixes the two chains' lines (`D`/`P` of the DBE
-/// chain, `R`/`Q` of the FFT chain, chosen by the header's `chain` field).
+/// Parse the firmware's output (format: `firmware/src/lib.rs`). Fails unless the run printed
+/// its header (with its `chain`), calibration, statistics and stages and ended with `E ok`.
 pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
     let mut run = FirmwareRun {
         preset: String::new(),
@@ -705,7 +679,6 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
         sizes: (0, 0, 0, 0),
         instructions_per_tick: 0,
         detections: Vec::new(),
-        rd_detections: Vec::new(),
         points: Vec::new(),
         stats: FrameStats::default(),
         stages: BTreeMap::new(),
@@ -718,14 +691,6 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
         let t: Vec<&str> = raw.split_whitespace().collect();
         let f = |i: usize, what: &str| field::<f32>(&t, i, line, what);
         let tag = t.first().copied();
-        let wrong_chain = |chain: Chain| FirmwareError::Output {
-            line,
-            message: format!(
-                "a `{}` line in the output of the {} chain",
-                tag.unwrap_or_default(),
-                chain_name(chain)
-            ),
-        };
         match tag {
             None => {}
             Some("H") => {
@@ -741,7 +706,12 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
                 };
                 run.preset = field(&t, 2, line, "preset name")?;
                 run.chain = match t.iter().position(|x| *x == "chain") {
-                    None => Chain::Dbe,
+                    None => {
+                        return Err(FirmwareError::Output {
+                            line,
+                            message: "header lacks `chain`".to_string(),
+                        })
+                    }
                     Some(pos) => match t.get(pos + 1).copied() {
                         Some("dbe") => Chain::Dbe,
                         Some("fft") => Chain::Fft,
@@ -777,21 +747,13 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
                     });
                 }
             }
-            Some("D" | "P") if run.chain != Chain::Dbe => return Err(wrong_chain(run.chain)),
-            Some("R" | "Q") if run.chain != Chain::Fft => return Err(wrong_chain(run.chain)),
             Some("D") => run.detections.push(FwDetection {
                 range_bin: field(&t, 1, line, "range bin")?,
-                azimuth_bin: field(&t, 2, line, "azimuth bin")?,
+                column: field(&t, 2, line, "column")?,
                 power: f(3, "power")?,
                 level: f(4, "level")?,
             }),
-            Some("R") => run.rd_detections.push(FwRdDetection {
-                range_bin: field(&t, 1, line, "range bin")?,
-                doppler_bin: field(&t, 2, line, "Doppler bin")?,
-                power: f(3, "power")?,
-                level: f(4, "level")?,
-            }),
-            Some("P" | "Q") => run.points.push(parse_point(&t, line)?),
+            Some("P") => run.points.push(parse_point(&t, line)?),
             Some("F") => {
                 run.stats = FrameStats {
                     detections: field(&t, 1, line, "detections")?,
@@ -851,10 +813,7 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
             message: format!("no {what}; the run was cut short"),
         });
     }
-    let detections = match run.chain {
-        Chain::Dbe => run.detections.len(),
-        Chain::Fft => run.rd_detections.len(),
-    };
+    let detections = run.detections.len();
     if run.points.len() != run.stats.points as usize || detections != run.stats.detections as usize
     {
         return Err(FirmwareError::Output {
@@ -917,39 +876,28 @@ impl ElfMemory {
     }
 }
 
-/// The DBE images' statics worth naming, and what they hold.
-const DBE_STATICS: [(&str, &str); 5] = [
+/// The statics every image names (`firmware/src/lib.rs`, `image!`), and what they hold.
+const STATICS: [(&str, &str); 6] = [
     ("CUBE", "radar cube (`CubeStorage`)"),
     (
         "WORKSPACE",
-        "`Workspace` (range bin in flight, RA map, CFAR)",
-    ),
-    ("DBE", "`Dbe` (steering tables, windows, parameters)"),
-    ("CLOUD", "`PointCloud`"),
-    ("DMA_CHIRP", "one-chirp DMA buffer"),
-];
-
-/// The FFT images' statics worth naming, and what they hold.
-const FFT_STATICS: [(&str, &str); 5] = [
-    ("CUBE", "radar cube (`CubeStorage`)"),
-    (
-        "FFT_WORKSPACE",
-        "`FftWorkspace` (range bin in flight, RD map, CFAR)",
+        "the chain's workspace: range bin in flight, map (DBE: range–azimuth, FFT: range–Doppler), CFAR",
     ),
     (
-        "FFT_CHAIN",
-        "`FftChain` (windows, twiddles, beamscan table, parameters)",
+        "CHAIN",
+        "the chain: tables and parameters (DBE: steering tables; FFT: twiddles, beamscan table)",
+    ),
+    (
+        "FRONTEND",
+        "`Frontend`: range window, coupling table, array layout",
     ),
     ("CLOUD", "`PointCloud`"),
     ("DMA_CHIRP", "one-chirp DMA buffer"),
 ];
 
-/// The statics an image of `chain` names, and what they hold.
-pub const fn named_statics(chain: Chain) -> &'static [(&'static str, &'static str)] {
-    match chain {
-        Chain::Dbe => &DBE_STATICS,
-        Chain::Fft => &FFT_STATICS,
-    }
+/// The statics an image names, and what they hold (the same for both chains).
+pub const fn named_statics() -> &'static [(&'static str, &'static str)] {
+    &STATICS
 }
 
 /// The name a legacy-mangled Rust symbol ends with (`_ZN…4CUBE17h…E` → `CUBE`).
@@ -974,9 +922,9 @@ fn static_name(mangled: &str) -> Option<&str> {
     }
 }
 
-/// Sections and named buffers ([`named_statics`] of `chain`) of the firmware ELF at `path`.
-pub fn elf_memory(path: &Path, chain: Chain) -> Result<ElfMemory, FirmwareError> {
-    let named_statics = named_statics(chain);
+/// Sections and named buffers ([`named_statics`]) of the firmware ELF at `path`.
+pub fn elf_memory(path: &Path) -> Result<ElfMemory, FirmwareError> {
+    let named_statics = named_statics();
     use object::{Object, ObjectSection, ObjectSymbol};
     let data = std::fs::read(path).map_err(io_err(path, "read the firmware ELF"))?;
     let bad = |message: String| FirmwareError::Elf {
@@ -1116,8 +1064,8 @@ pub struct PresetBudget {
     pub buffers: Vec<Buffer>,
     /// Stack peak over the whole run, bytes.
     pub stack_peak_bytes: u64,
-    /// Stack peak up to and including the chain's setup (`Dbe::configure`, `FftChain::new`),
-    /// bytes.
+    /// Stack peak up to and including the setup (`Frontend::configure` + the chain's
+    /// `configure`), bytes.
     pub stack_peak_setup_bytes: u64,
     /// Stack peak of one frame (ingest + process) after setup, bytes.
     pub stack_peak_frame_bytes: u64,
@@ -1203,7 +1151,7 @@ pub fn measure(layout: &Layout) -> Result<(Budget, Vec<Measurement>, AdcFrame), 
                 ),
             });
         }
-        let elf = elf_memory(&layout.elf(image), image.chain)?;
+        let elf = elf_memory(&layout.elf(image))?;
         let budget = PresetBudget::new(image, &run, &elf, &frame_description(preset));
         measurements.push(Measurement { image, run, budget });
     }
@@ -1276,7 +1224,10 @@ const DBE_STAGES: StageRows = (
         ),
         ("process", "`process` (stages 1–5)"),
         ("total", "**per frame** (ingest + process)"),
-        ("setup", "setup: `Dbe::configure` (once)"),
+        (
+            "setup",
+            "setup: `Frontend::configure` + `Dbe::configure` (once)",
+        ),
     ],
     "elevation_doppler",
     "stages 3–5 per detection (÷ detections)",
@@ -1305,7 +1256,10 @@ const FFT_STAGES: StageRows = (
         ),
         ("process", "`process` (stages 1–3)"),
         ("total", "**per frame** (ingest + process)"),
-        ("setup", "setup: `FftChain::new` (once)"),
+        (
+            "setup",
+            "setup: `Frontend::configure` + `FftChain::configure` (once)",
+        ),
     ],
     "angles",
     "stage 3 per detection (÷ detections)",
@@ -1447,7 +1401,7 @@ pub fn render_markdown(budget: &Budget) -> String {
     let embedded = |p: &PresetBudget| thousands(p.embedded_frame_bytes);
     rows.push(("**static RAM** (`.data` + `.bss`)".into(), &static_ram));
     rows.push((
-        "stack peak, setup (`Dbe::configure` / `FftChain::new`)".into(),
+        "stack peak, setup (`Frontend::configure` + the chain's `configure`)".into(),
         &setup,
     ));
     rows.push(("stack peak, one frame (ingest + process)".into(), &frame));
@@ -1473,7 +1427,7 @@ pub fn render_markdown(budget: &Budget) -> String {
             let own: u64 = f
                 .buffers
                 .iter()
-                .filter(|b| b.symbol == "FFT_CHAIN" || b.symbol == "FFT_WORKSPACE")
+                .filter(|b| b.symbol == "CHAIN" || b.symbol == "WORKSPACE")
                 .map(|b| b.bytes)
                 .sum();
             Some(format!(
@@ -1502,7 +1456,7 @@ pub fn render_markdown(budget: &Budget) -> String {
         let _ = writeln!(
             s,
             "Both chains on one cube (derived from the rows above, not measured as one image): \
-             the DBE image plus `FFT_CHAIN` + `FFT_WORKSPACE`, and the FFT chain's `process` \
+             the DBE image plus the FFT image's `CHAIN` + `WORKSPACE`, and the FFT chain's `process` \
              on the cube the DBE chain ingested: {}.\n",
             both.join("; ")
         );
@@ -1652,7 +1606,7 @@ mod tests {
     use super::*;
 
     const GOOD: &str =
-        "H preset iwr6843 samples 256 loops 64 tx 3 rx 4 azimuth_bins 188 elevation_bins 101
+        "H preset iwr6843 chain dbe samples 256 loops 64 tx 3 rx 4 azimuth_bins 188 elevation_bins 101
 C 40000000 1000001 40
 D 38 88 1.5e6 2.5e4
 P 38 88 47 0 3.6975238 0.26627824 -0.097073816 0 97.3333 15.095507
@@ -1681,8 +1635,8 @@ E ok
     const GOOD_FFT: &str =
         "H preset coloradar chain fft samples 128 loops 128 tx 3 rx 4 azimuth_bins 188 elevation_bins 101
 C 40000000 1000000 40
-R 24 0 12385211000000 1538180
-Q 24 109 62 0 2.919707 -0.602998 0.3132604 0 130.92903 69.05896
+D 24 0 12385211000000 1538180
+P 24 109 62 0 2.919707 -0.602998 0.3132604 0 130.92903 69.05896
 F 1 0 1 0 0 0
 S ingest 27944560 698614
 S total 48416080 1210402
@@ -1692,43 +1646,31 @@ E ok
 ";
 
     #[test]
-    fn parses_an_fft_run_and_keeps_the_chains_apart() {
+    fn parses_an_fft_run_and_requires_the_chain() {
         let run = parse_output(GOOD_FFT).expect("a complete FFT run parses");
         assert_eq!((run.preset.as_str(), run.chain), ("coloradar", Chain::Fft));
-        assert!(run.detections.is_empty());
         assert_eq!(
-            run.rd_detections,
-            vec![FwRdDetection {
+            run.detections,
+            vec![FwDetection {
                 range_bin: 24,
-                doppler_bin: 0,
+                column: 0,
                 power: 12_385_211_000_000.0,
                 level: 1_538_180.0,
             }]
         );
         assert_eq!(run.points.len(), 1);
         assert_eq!(run.points[0].z, f64::from(0.313_260_4_f32));
-        // Each chain's lines only in its own run, reported at the offending line.
-        let p_in_fft = GOOD_FFT.replace("Q 24", "P 24");
-        assert!(matches!(
-            parse_output(&p_in_fft),
-            Err(FirmwareError::Output { line: 4, .. })
-        ));
-        let d_in_fft = GOOD_FFT.replace("R 24", "D 24");
-        assert!(matches!(
-            parse_output(&d_in_fft),
-            Err(FirmwareError::Output { line: 3, .. })
-        ));
-        let q_in_dbe = GOOD.replace("P 38", "Q 38");
-        assert!(matches!(
-            parse_output(&q_in_dbe),
-            Err(FirmwareError::Output { line: 4, .. })
-        ));
         let unknown = GOOD_FFT.replace("chain fft", "chain music");
         assert!(matches!(
             parse_output(&unknown),
             Err(FirmwareError::Output { line: 1, .. })
         ));
-        // The detection count is checked against the `R` lines.
+        let unnamed = GOOD_FFT.replace("chain fft ", "");
+        assert!(matches!(
+            parse_output(&unnamed),
+            Err(FirmwareError::Output { line: 1, .. })
+        ));
+        // The detection count is checked against the `D` lines.
         let miscounted = GOOD_FFT.replace("F 1 0 1", "F 2 0 1");
         assert!(parse_output(&miscounted).is_err());
     }
@@ -1774,12 +1716,12 @@ E ok
             presets: vec![
                 entry(
                     Image::dbe(Preset::ColoRadar),
-                    &[("CUBE", 1000), ("DBE", 300), ("other", 0)],
+                    &[("CUBE", 1000), ("CHAIN", 300), ("other", 0)],
                     &[("elevation_doppler", 600), ("total", 5000)],
                 ),
                 entry(
                     Image::fft(Preset::ColoRadar),
-                    &[("CUBE", 1000), ("FFT_CHAIN", 200), ("FFT_WORKSPACE", 70)],
+                    &[("CUBE", 1000), ("CHAIN", 200), ("WORKSPACE", 70)],
                     &[("angles", 100), ("process", 2000), ("total", 4000)],
                 ),
             ],
@@ -1790,13 +1732,10 @@ E ok
             "{md}"
         );
         // A buffer an image lacks is a dash; `other` comes last.
-        assert!(md.contains("| `DBE`: w | 300 | — |"), "{md}");
-        assert!(md.contains("| `FFT_CHAIN`: w | — | 200 |"), "{md}");
+        assert!(md.contains("| `CHAIN`: w | 300 | 200 |"), "{md}");
+        assert!(md.contains("| `WORKSPACE`: w | — | 70 |"), "{md}");
         let other = md.find("| `other`").expect("other row");
-        assert!(
-            md.find("| `FFT_WORKSPACE`").is_some_and(|i| i < other),
-            "{md}"
-        );
+        assert!(md.find("| `WORKSPACE`").is_some_and(|i| i < other), "{md}");
         // Separate instruction tables with their own per-detection rows.
         assert!(
             md.contains("| instructions, DBE chain | coloradar |"),
@@ -1814,7 +1753,7 @@ E ok
             md.contains("| stage 3 per detection (÷ detections) | 50 |"),
             "{md}"
         );
-        // Both chains on one cube: the DBE image + FFT_CHAIN + FFT_WORKSPACE, and its frame
+        // Both chains on one cube: the DBE image + the FFT image's CHAIN + WORKSPACE, and its frame
         // + the FFT `process`.
         assert!(
             md.contains("`coloradar` + 270 = 1,570 bytes of static RAM, a frame 5,000 + 2,000 = 7,000 instructions"),

@@ -538,7 +538,7 @@ fn compare_detections(
         .iter()
         .map(|d| {
             (
-                (usize::from(d.range_bin), usize::from(d.azimuth_bin)),
+                (usize::from(d.range_bin), usize::from(d.column)),
                 (f64::from(d.power), f64::from(d.level)),
             )
         })

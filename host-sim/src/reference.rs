@@ -68,9 +68,9 @@
 use std::f64::consts::PI;
 use std::sync::Arc;
 
-use dbe_radar::config::{CfarParams, ElevationParams};
 use dbe_radar::window::WindowKind;
 use dbe_radar::Params;
+use dbe_radar::{CfarKind, CfarParams, ElevationParams};
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
@@ -568,17 +568,19 @@ fn check_params(
         return Err(bad("grid size", "needs at least 3 bins"));
     }
     let c: &CfarParams = &params.cfar;
-    if !(c.quantile.is_finite() && c.quantile > 0.0 && c.quantile <= 1.0) {
-        return Err(bad("cfar.quantile", "must be in (0, 1]"));
+    if let CfarKind::OrderStatistic { quantile: q } = c.kind {
+        if !(q.is_finite() && q > 0.0 && q <= 1.0) {
+            return Err(bad("cfar.quantile", "must be in (0, 1]"));
+        }
     }
     if !c.threshold_db.is_finite() {
         return Err(bad("cfar.threshold_db", "must be finite"));
     }
-    if c.train_range == 0 && c.train_azimuth == 0 {
+    if c.train_range == 0 && c.train_cross == 0 {
         return Err(bad("cfar training window", "must not be empty"));
     }
-    if 2 * usize::from(c.edge_skip_azimuth) + 1 > azimuth_bins {
-        return Err(bad("cfar.edge_skip_azimuth", "leaves no azimuth bin"));
+    if 2 * usize::from(c.edge_skip) + 1 > azimuth_bins {
+        return Err(bad("cfar.edge_skip", "leaves no azimuth bin"));
     }
     let e: &ElevationParams = &params.elevation;
     if e.max_peaks == 0 || !(e.peak_range_db.is_finite() && e.peak_range_db >= 0.0) {
@@ -723,7 +725,8 @@ fn local_max(map: &[Vec<f64>], first: usize, last: usize, b: usize, i: usize) ->
     }
 }
 
-/// The `⌈q·n⌉`-th smallest training value around `(b, i)`, `None` without training cells.
+/// The noise statistic of the training cells around `(b, i)`: the `⌈q·n⌉`-th smallest
+/// (OS-CFAR) or their mean (CA-CFAR); `None` without training cells.
 fn order_statistic(
     map: &[Vec<f64>],
     p: &CfarParams,
@@ -733,10 +736,10 @@ fn order_statistic(
     i: usize,
 ) -> Option<f64> {
     let naz = map[b].len();
-    let (gr, ga) = (usize::from(p.guard_range), usize::from(p.guard_azimuth));
+    let (gr, ga) = (usize::from(p.guard_range), usize::from(p.guard_cross));
     let (wr, wa) = (
         gr + usize::from(p.train_range),
-        ga + usize::from(p.train_azimuth),
+        ga + usize::from(p.train_cross),
     );
     let mut train = Vec::new();
     for (rb, row) in map
@@ -759,11 +762,15 @@ fn order_statistic(
     if train.is_empty() {
         return None;
     }
-    train.sort_by(f64::total_cmp);
     let n = train.len();
+    let quantile = match p.kind {
+        CfarKind::OrderStatistic { quantile } => quantile,
+        CfarKind::CellAveraging => return Some(train.iter().sum::<f64>() / n as f64),
+    };
+    train.sort_by(f64::total_cmp);
     // ⌈q·n⌉ with q as the decimal the user wrote: q arrives as f32, whose rounding (≤ 6e-8
     // relative) must not push an integral q·n to the next integer.
-    let qn = f64::from(p.quantile) * n as f64;
+    let qn = f64::from(quantile) * n as f64;
     let k = ((qn - 1e-6 * qn.max(1.0)).ceil() as usize).clamp(1, n);
     Some(train[k - 1])
 }
@@ -805,7 +812,7 @@ pub fn detect(
     capacity: usize,
 ) -> (Vec<RefDetection>, usize) {
     let (first, last) = processed_rows(params, map.len());
-    let edge = usize::from(params.cfar.edge_skip_azimuth);
+    let edge = usize::from(params.cfar.edge_skip);
     let mut found = Vec::new();
     for b in first..=last {
         let naz = map[b].len();

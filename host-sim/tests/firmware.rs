@@ -57,7 +57,6 @@
 
 use std::sync::OnceLock;
 
-use dbe_radar::cfar::Detection;
 use dbe_radar::config::ArrayLayout;
 use dbe_radar::{AntennaGeometry, Params};
 use host_sim::cloud::PointRecord;
@@ -243,8 +242,8 @@ fn firmware_output_equals_the_host_core_on_the_same_frame() {
         assert_eq!(fw.detections.len(), host.detections.len(), "{preset}");
         for (f, h) in fw.detections.iter().zip(&host.detections) {
             assert_eq!(
-                (f.range_bin, f.azimuth_bin),
-                (h.range_bin, h.azimuth_bin),
+                (f.range_bin, f.column),
+                (h.range_bin, h.column),
                 "{preset}: detection cell"
             );
             for (what, a, b) in [("power", f.power, h.power), ("level", f.level, h.level)] {
@@ -253,7 +252,7 @@ fn firmware_output_equals_the_host_core_on_the_same_frame() {
                     e <= POWER_RELATIVE,
                     "{preset}: detection ({}, {}) {what}: firmware {a}, host {b}",
                     f.range_bin,
-                    f.azimuth_bin
+                    f.column
                 );
             }
         }
@@ -273,22 +272,27 @@ fn fft_firmware_output_equals_the_host_fft_chain_on_the_same_frame() {
         let image = Image::fft(preset);
         let fw = &m.get(image).run;
         assert_eq!(fw.chain, Chain::Fft, "{image}");
-        assert!(fw.detections.is_empty(), "{image}: DBE detections printed");
         let (sensor, frame) = m.input(preset);
         let host = host_chain(&sensor, &frame, Chain::Fft);
         assert_eq!(fw.stats, host.stats, "{image}: frame statistics");
         assert_eq!(
-            fw.rd_detections.len(),
+            fw.detections.len(),
             host.stats.detections as usize,
             "{image}: range–Doppler detections printed"
         );
         // Every point comes from a detection of its range and Doppler bin.
         for p in &fw.points {
             assert!(
-                fw.rd_detections
-                    .iter()
-                    .any(|d| (u32::from(d.range_bin), i32::from(d.doppler_bin))
-                        == (p.range_bin, p.doppler_bin)),
+                fw.detections.iter().any(|d| {
+                    // The natural FFT index as a signed bin (spec §2).
+                    let (loops, column) = (preset.sizes().1 as i32, i32::from(d.column));
+                    let doppler = if column < loops / 2 {
+                        column
+                    } else {
+                        column - loops
+                    };
+                    (u32::from(d.range_bin), doppler) == (p.range_bin, p.doppler_bin)
+                }),
                 "{image}: no detection for the point {p:?}"
             );
         }
@@ -304,7 +308,7 @@ fn fft_firmware_output_equals_the_host_fft_chain_on_the_same_frame() {
         assert_points_agree(image, &fw.points, &host.points, &slack);
         eprintln!(
             "{image}: {} detections, {} points, equal to the host core's FFT chain (δν = {dnu:.1e})",
-            fw.rd_detections.len(),
+            fw.detections.len(),
             fw.points.len()
         );
     }
@@ -334,16 +338,7 @@ fn firmware_agrees_with_the_f64_reference() {
             points: fw.points.clone(),
             stats: fw.stats,
             ra_map: host_core(&sensor, &frame).ra_map,
-            detections: fw
-                .detections
-                .iter()
-                .map(|d| Detection {
-                    range_bin: d.range_bin,
-                    azimuth_bin: d.azimuth_bin,
-                    power: d.power,
-                    level: d.level,
-                })
-                .collect(),
+            detections: fw.detections.clone(),
         };
         let agreement = harness::compare(&firmware_output, &reference, &params);
         assert!(
@@ -435,33 +430,37 @@ fn static_buffers_have_the_sizes_of_the_core_types() {
     let Some(m) = measured() else { return };
     // Host `size_of` (64-bit) vs the ELF (32-bit): arrays are identical, every `usize` length
     // field is 4 bytes shorter on the Cortex-M (plus the padding that follows it).
-    let host = |image: Image| -> [(&str, usize); 5] {
+    let host = |image: Image| -> [(&str, usize); 6] {
         match (image.preset, image.chain) {
             (Preset::ColoRadar, Chain::Dbe) => [
                 ("CUBE", size_of::<c::CubeStorage>()),
                 ("WORKSPACE", size_of::<c::Workspace>()),
-                ("DBE", size_of::<c::Dbe>()),
+                ("CHAIN", size_of::<c::Dbe>()),
+                ("FRONTEND", size_of::<c::Frontend>()),
                 ("CLOUD", size_of::<c::PointCloud>()),
                 ("DMA_CHIRP", size_of::<c::Chirp>()),
             ],
             (Preset::Iwr6843, Chain::Dbe) => [
                 ("CUBE", size_of::<i::CubeStorage>()),
                 ("WORKSPACE", size_of::<i::Workspace>()),
-                ("DBE", size_of::<i::Dbe>()),
+                ("CHAIN", size_of::<i::Dbe>()),
+                ("FRONTEND", size_of::<i::Frontend>()),
                 ("CLOUD", size_of::<i::PointCloud>()),
                 ("DMA_CHIRP", size_of::<i::Chirp>()),
             ],
             (Preset::ColoRadar, Chain::Fft) => [
                 ("CUBE", size_of::<c::CubeStorage>()),
-                ("FFT_WORKSPACE", size_of::<c::FftWorkspace>()),
-                ("FFT_CHAIN", size_of::<c::FftChain>()),
+                ("WORKSPACE", size_of::<c::FftWorkspace>()),
+                ("CHAIN", size_of::<c::FftChain>()),
+                ("FRONTEND", size_of::<c::Frontend>()),
                 ("CLOUD", size_of::<c::PointCloud>()),
                 ("DMA_CHIRP", size_of::<c::Chirp>()),
             ],
             (Preset::Iwr6843, Chain::Fft) => [
                 ("CUBE", size_of::<i::CubeStorage>()),
-                ("FFT_WORKSPACE", size_of::<i::FftWorkspace>()),
-                ("FFT_CHAIN", size_of::<i::FftChain>()),
+                ("WORKSPACE", size_of::<i::FftWorkspace>()),
+                ("CHAIN", size_of::<i::FftChain>()),
+                ("FRONTEND", size_of::<i::Frontend>()),
                 ("CLOUD", size_of::<i::PointCloud>()),
                 ("DMA_CHIRP", size_of::<i::Chirp>()),
             ],

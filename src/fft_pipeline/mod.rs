@@ -2,26 +2,24 @@
 //! DBE against, on the same cube and with the same [`Point`] output.
 //!
 //! ```text
-//! per chirp  push_chirp : DC removal, window, range FFT ──▶ Cube[bin][row][loop]   (as Dbe)
-//! per frame  process    : for each kept range bin b, for each row m
-//!                            K-point scratch ← window · cube[b][m]; FFT
-//!                            RD[b][d] += |scratch[d]|²                  (non-coherent sum)
-//!                         CA- or OS-CFAR on RD (Doppler wrapped) + 3×3 local max
-//!                         per detection (b, d):
-//!                            x_m = Σ_k w_k·cube[b][m][k]·e^{−j2πdk/K}   (single-bin DFT)
-//!                            x_m ·= e^{−j·4π·v·t_m·Tc/λ}               (TDM, t_m = slot of m)
-//!                            azimuth: beamscan |aᴴx|² of the line on the μ grid → peak i
-//!                            elevation: ψ = arg Σ x_line(a)·x_el(a)*, ν = ψ / (κ·Δel)
-//!                            drop μ²+ν² ≥ 1, else Point
+//! Frontend      : DC removal, window, range FFT ──▶ Cube ──▶ Frame          (as the DBE chain)
+//! doppler_map   : for each kept range bin b, for each row m
+//!                    K-point scratch ← window · cube[b][m]; FFT
+//!                    RD[b][d] += |scratch[d]|²                         (non-coherent sum)
+//! detect_targets: CA- or OS-CFAR on RD (Doppler periodic) + 3×3 local max   (cfar.rs)
+//! angles        : per detection (b, d):
+//!                    x_m = Σ_k w_k·cube[b][m][k]·e^{−j2πdk/K}          (single-bin DFT)
+//!                    x_m ·= e^{−j·4π·v·t_m·Tc/λ}                      (tdm.rs)
+//!                    azimuth: beamscan |aᴴx|² of the line on the μ grid → peak i
+//!                    elevation: ψ = arg Σ x_line(a)·x_el(a)*, ν = ψ / (κ·Δel)  (elevation.rs)
+//!                    Point::at(range, μ, ν)                            (points.rs)
 //! ```
 //!
 //! # Input
 //!
-//! The cube is the DBE chain's [`Cube`]: [`FftChain::push_chirp`] is the same ingestion as
-//! [`crate::Dbe::push_chirp`] (DC removal, range window, unnormalised range FFT, optional
-//! coupling subtraction, rows in [`ArrayLayout`] order). The row order depends only on the
-//! antenna geometry, so a cube filled by a `Dbe` with the same geometry and range window is a
-//! valid input too: both chains can run on one cube, which is how they are compared.
+//! The [`Frame`] of the shared [`Frontend`] (DC removal, range window, unnormalised range
+//! FFT, optional coupling subtraction, rows in [`ArrayLayout`] order): both chains run on one
+//! frame, which is how they are compared.
 //!
 //! # Memory and layout
 //!
@@ -41,7 +39,8 @@
 //!
 //! # Detection
 //!
-//! 2-D CFAR on the RD map ([`rd_cfar`]): cell averaging by default (the classic chain, as TI's
+//! 2-D CFAR on the RD map ([`crate::cfar`], the DBE chain's detector with periodic columns):
+//! cell averaging by default (the classic chain, as TI's
 //! mmWave SDK `CFAR-CA`), ordered statistic selectable; the Doppler axis wraps (it is
 //! periodic, and the 0 m/s ridge of static clutter sits at the FFT's wrap), the range axis is
 //! truncated at the processed window; a 3×3 local maximum keeps one detection per target.
@@ -86,22 +85,20 @@
 //!
 //! [`FrameStats::skipped_range_bins`]: crate::FrameStats::skipped_range_bins
 
-pub mod rd_cfar;
-
 use num_complex::Complex32;
 
-pub use rd_cfar::{CfarKind, RdCfarParams, RdDetection, RdDetections};
-
-use crate::cfar::MAX_TRAINING_CELLS;
-use crate::config::{
-    finite, sine_at, sine_grid, span, AntennaGeometry, ArrayLayout, ConfigError, Param, Params,
-    Waveform, SPAN_LIMIT_DEG,
-};
-use crate::cube::{ChirpId, Cube, FrameError, Snapshots};
+use crate::cfar::{self, CfarParams, Columns, Detection, Detections, MapShape, MAX_TRAINING_CELLS};
+use crate::chain::Chain;
+use crate::config::{sine_at, sine_grid, span, ArrayLayout, ConfigError, Param, SPAN_LIMIT_DEG};
+use crate::cube::{Frame, Snapshots};
+use crate::doppler::signed_bin;
+use crate::elevation;
 use crate::fft::fft_in_place;
-use crate::points::{ratio_db, Point, PointCloud};
-use crate::range::RangeFft;
+use crate::frontend::Frontend;
+use crate::pipeline::Params;
+use crate::points::{power_db, ratio_db, Point, PointCloud};
 use crate::refine::parabolic_offset;
+use crate::tdm;
 use crate::window::WindowKind;
 
 const ZERO: Complex32 = Complex32::new(0.0, 0.0);
@@ -113,7 +110,8 @@ pub struct FftParams {
     pub range_first: u16,
     /// Last range bin processed (inclusive); at most `N − 1`.
     pub range_last: u16,
-    /// Range window applied before the range FFT (ingestion, as the DBE chain).
+    /// Range window applied before the range FFT: the [`Frontend`]'s, which
+    /// [`FftChain::configure`] checks.
     pub range_window: WindowKind,
     /// Slow-time window applied before the Doppler FFT (default Hann).
     pub doppler_window: WindowKind,
@@ -126,14 +124,15 @@ pub struct FftParams {
     /// Sub-grid refinement of range, azimuth and Doppler (see [`crate::refine`]); the
     /// phase-difference elevation is continuous already.
     pub subgrid: bool,
-    /// Detection parameters.
-    pub cfar: RdCfarParams,
+    /// Detection parameters (the column axis is the periodic Doppler axis; `edge_skip` is
+    /// not used).
+    pub cfar: CfarParams,
 }
 
 impl FftParams {
     /// Defaults for `samples` samples per chirp: range bins `12 ..= N − 3`, Blackman range and
     /// Hann Doppler windows, TDM compensation on, azimuth ±70°, elevation ±25° (all as the
-    /// DBE chain's [`Params::defaults`]), CA-CFAR ([`RdCfarParams::CA_DEFAULT`]).
+    /// DBE chain's [`Params::defaults`]), CA-CFAR ([`CfarParams::RANGE_DOPPLER_CA`]).
     pub const fn defaults(samples: usize) -> Self {
         Self::from_dbe(&Params::defaults(samples))
     }
@@ -150,11 +149,24 @@ impl FftParams {
             azimuth_span_deg: p.azimuth_span_deg,
             elevation_span_deg: p.elevation_span_deg,
             subgrid: p.subgrid,
-            cfar: RdCfarParams::CA_DEFAULT,
+            cfar: CfarParams::RANGE_DOPPLER_CA,
         }
     }
 
-    fn validate(&self, samples: usize, loops: usize) -> Result<(), ConfigError> {
+    /// Every field zero: the parameters of an unconfigured chain (all-zero bytes).
+    const ZEROED: Self = Self {
+        range_first: 0,
+        range_last: 0,
+        range_window: WindowKind::Rectangular,
+        doppler_window: WindowKind::Rectangular,
+        tdm_compensation: false,
+        azimuth_span_deg: (0.0, 0.0),
+        elevation_span_deg: (0.0, 0.0),
+        subgrid: false,
+        cfar: CfarParams::ZEROED,
+    };
+
+    fn validate(&self, samples: usize, loops: usize, nel: usize) -> Result<(), ConfigError> {
         if self.range_first > self.range_last || usize::from(self.range_last) >= samples {
             return Err(ConfigError::OutOfRange(Param::RangeWindow));
         }
@@ -162,43 +174,31 @@ impl FftParams {
         span(a0, a1, SPAN_LIMIT_DEG, Param::AzimuthSpan)?;
         let (e0, e1) = self.elevation_span_deg;
         span(e0, e1, SPAN_LIMIT_DEG, Param::ElevationSpan)?;
-        let c = &self.cfar;
-        if let CfarKind::OrderStatistic { quantile } = c.kind {
-            finite(f64::from(quantile), Param::CfarQuantile)?;
-            if !(quantile > 0.0 && quantile <= 1.0) {
-                return Err(ConfigError::OutOfRange(Param::CfarQuantile));
-            }
+        if nel < 3 {
+            return Err(ConfigError::OutOfRange(Param::GridSize));
         }
-        finite(f64::from(c.threshold_db), Param::CfarThreshold)?;
-        let doppler_extent = 2 * (usize::from(c.guard_doppler) + usize::from(c.train_doppler)) + 1;
-        if (c.train_range == 0 && c.train_doppler == 0)
-            || doppler_extent > loops
-            || c.full_training_cells() > MAX_TRAINING_CELLS
-        {
-            return Err(ConfigError::OutOfRange(Param::CfarWindow));
-        }
-        Ok(())
+        self.cfar.validate(loops, Columns::Periodic)
     }
 }
 
 /// Mutable per-frame state of the FFT chain: the range–Doppler map, the CFAR scratch and the
 /// detection list. Construct it once (it is `const`), reuse it every frame.
 #[derive(Clone, Debug)]
-pub struct FftWorkspace<const N: usize, const M: usize, const K: usize, const DET: usize> {
-    block: Snapshots<M, K>,
+pub struct FftWorkspace<const N: usize, const K: usize, const M: usize, const DET: usize> {
+    block: Snapshots<K, M>,
     rd: [[f32; K]; N],
     scratch: [f32; MAX_TRAINING_CELLS],
-    detections: RdDetections<DET>,
+    detections: Detections<DET>,
 }
 
-impl<const N: usize, const M: usize, const K: usize, const DET: usize> FftWorkspace<N, M, K, DET> {
+impl<const N: usize, const K: usize, const M: usize, const DET: usize> FftWorkspace<N, K, M, DET> {
     /// A zeroed workspace.
     pub const fn new() -> Self {
         Self {
             block: [[ZERO; K]; M],
             rd: [[0.0; K]; N],
             scratch: [0.0; MAX_TRAINING_CELLS],
-            detections: RdDetections::new(),
+            detections: Detections::new(),
         }
     }
 
@@ -209,14 +209,15 @@ impl<const N: usize, const M: usize, const K: usize, const DET: usize> FftWorksp
         &self.rd
     }
 
-    /// The CFAR detections of the last frame.
-    pub fn detections(&self) -> &[RdDetection] {
+    /// The CFAR detections of the last frame (`column` = natural Doppler index; the signed
+    /// bin is [`signed_bin`]).
+    pub fn detections(&self) -> &[Detection] {
         self.detections.as_slice()
     }
 }
 
-impl<const N: usize, const M: usize, const K: usize, const DET: usize> Default
-    for FftWorkspace<N, M, K, DET>
+impl<const N: usize, const K: usize, const M: usize, const DET: usize> Default
+    for FftWorkspace<N, K, M, DET>
 {
     fn default() -> Self {
         Self::new()
@@ -228,12 +229,13 @@ impl<const N: usize, const M: usize, const K: usize, const DET: usize> Default
 ///
 /// Const generics as [`crate::Dbe`]: `N` samples per chirp, `K` loops, `TX`, `RX`,
 /// `M = TX·RX` virtual antennas of which `AZ` form the azimuth line, `NAZ` azimuth grid bins,
-/// `NEL` elevation grid bins (used only to label points).
+/// `NEL` elevation grid bins (used only to label points), `DET` detections per frame.
 ///
 /// ```
-/// use dbe_radar::{presets::coloradar as p, ChirpId};
+/// use dbe_radar::{presets::coloradar as p, Chain, ChirpId};
 ///
-/// let chain = p::fft_chain().unwrap();
+/// let frontend = p::frontend().unwrap();
+/// let chain = p::fft_chain(&frontend).unwrap();
 /// let mut storage: Box<p::CubeStorage> =
 ///     vec![[[Default::default(); p::LOOPS]; p::VIRTUAL]; p::SAMPLES].try_into().unwrap();
 /// let mut cube = p::Cube::new(&mut storage);
@@ -242,10 +244,10 @@ impl<const N: usize, const M: usize, const K: usize, const DET: usize> Default
 /// let silence: p::Chirp = [[[0, 0]; p::SAMPLES]; p::RX];
 /// for k in 0..p::LOOPS as u16 {
 ///     for t in 0..p::TX as u8 {
-///         chain.push_chirp(&mut cube, ChirpId { loop_index: k, tx_slot: t }, &silence).unwrap();
+///         frontend.push_chirp(&mut cube, ChirpId { loop_index: k, tx_slot: t }, &silence).unwrap();
 ///     }
 /// }
-/// chain.process(&cube, &mut work, &mut cloud).unwrap();
+/// chain.process(&frontend.frame(&cube).unwrap(), &mut work, &mut cloud);
 /// // An all-zero frame has an all-zero range–Doppler map: no detection, no point.
 /// assert_eq!(work.range_doppler()[40][0], 0.0);
 /// assert_eq!(cloud.stats.detections, 0);
@@ -260,13 +262,10 @@ pub struct FftChain<
     const AZ: usize,
     const NAZ: usize,
     const NEL: usize,
+    const DET: usize,
 > {
-    waveform: Waveform,
-    geometry: AntennaGeometry<TX, RX>,
     params: FftParams,
     layout: ArrayLayout<TX, RX, M>,
-    coupling: Option<[[Complex32; N]; M]>,
-    range: RangeFft<N>,
     doppler_window: [f32; K],
     /// `exp(−j·2π·k/K)`.
     twiddle: [Complex32; K],
@@ -292,31 +291,68 @@ impl<
         const AZ: usize,
         const NAZ: usize,
         const NEL: usize,
-    > FftChain<N, K, TX, RX, M, AZ, NAZ, NEL>
+        const DET: usize,
+    > FftChain<N, K, TX, RX, M, AZ, NAZ, NEL, DET>
 {
-    /// Validate the configuration and precompute windows, twiddles and steering tables.
+    /// Validate `params` and precompute windows, twiddles and steering tables for frames of
+    /// `frontend`.
     ///
-    /// Besides [`crate::Dbe::new`]'s checks, at least one elevation-row element must share
-    /// its azimuth position with an azimuth-line element, else
-    /// `ConfigError::OutOfRange(Param::AntennaPosition)`.
+    /// At least one elevation-row element must share its azimuth position with an
+    /// azimuth-line element, else `ConfigError::OutOfRange(Param::AntennaPosition)`.
     pub fn new(
-        waveform: Waveform,
-        geometry: AntennaGeometry<TX, RX>,
+        frontend: &Frontend<N, K, TX, RX, M, AZ>,
         params: FftParams,
     ) -> Result<Self, ConfigError> {
+        let mut chain = Self::unconfigured();
+        chain.configure(frontend, params)?;
+        Ok(chain)
+    }
+
+    /// A chain whose every byte is zero, `const`, so that a `static` of it lands in `.bss`
+    /// on firmware; [`Self::configure`] it in place before use. Unconfigured, it never panics
+    /// and produces no points.
+    pub const fn unconfigured() -> Self {
+        Self {
+            params: FftParams::ZEROED,
+            layout: ArrayLayout {
+                row_of: [[0; RX]; TX],
+                az: [0.0; M],
+                el: [0.0; M],
+                slot: [0; M],
+            },
+            doppler_window: [0.0; K],
+            twiddle: [ZERO; K],
+            az_mu: [0.0; NAZ],
+            az_beam: [[ZERO; AZ]; NAZ],
+            pairs: [(0, 0); M],
+            pair_count: 0,
+            kappa_del: 0.0,
+            range_bin_m: 0.0,
+            doppler_bin_mps: 0.0,
+        }
+    }
+
+    /// Validate and compute the tables in place (no chain-sized value on the stack). On error
+    /// `self` is unchanged.
+    pub fn configure(
+        &mut self,
+        frontend: &Frontend<N, K, TX, RX, M, AZ>,
+        params: FftParams,
+    ) -> Result<(), ConfigError> {
         const {
-            assert!(M == TX * RX, "M must equal TX · RX");
-            assert!(AZ >= 2 && AZ < M, "the azimuth line needs 2..M elements");
-            assert!(N.is_power_of_two() && K.is_power_of_two());
-            assert!(N <= u16::MAX as usize && K <= i16::MAX as usize);
             assert!(NAZ <= u16::MAX as usize && NEL <= u16::MAX as usize);
         };
-        waveform.validate()?;
-        let layout = ArrayLayout::new(&geometry, AZ)?;
-        params.validate(N, K)?;
-        if NAZ < 3 || NEL < 3 {
+        if !frontend.is_configured() {
+            return Err(ConfigError::FrontendUnconfigured);
+        }
+        params.validate(N, K, NEL)?;
+        if NAZ < 3 {
             return Err(ConfigError::OutOfRange(Param::GridSize));
         }
+        if params.range_window != frontend.range_window() {
+            return Err(ConfigError::OutOfRange(Param::RangeWindowKind));
+        }
+        let layout = *frontend.layout();
         let mut pairs = [(0u8, 0u8); M];
         let mut pair_count = 0;
         for e in AZ..M {
@@ -330,82 +366,37 @@ impl<
         if pair_count == 0 || !(del > 0.0) {
             return Err(ConfigError::OutOfRange(Param::AntennaPosition));
         }
-        let fc = waveform.center_frequency_hz(N);
-        let kappa = core::f64::consts::PI * fc / geometry.f_design_hz;
-        let az_mu = sine_grid::<NAZ>(params.azimuth_span_deg);
-        let mut az_beam = [[ZERO; AZ]; NAZ];
-        for (row, mu) in az_beam.iter_mut().zip(az_mu.iter()) {
+        let fc = frontend.waveform().center_frequency_hz(N);
+        let kappa = core::f64::consts::PI * fc / frontend.geometry().f_design_hz;
+        self.az_mu = sine_grid::<NAZ>(params.azimuth_span_deg);
+        for (row, mu) in self.az_beam.iter_mut().zip(self.az_mu.iter()) {
             for (a, pos) in row.iter_mut().zip(layout.az.iter()) {
                 *a = Complex32::from_polar(1.0, kappa as f32 * mu * pos);
             }
         }
-        let mut twiddle = [ZERO; K];
-        for (k, t) in twiddle.iter_mut().enumerate() {
+        for (k, t) in self.twiddle.iter_mut().enumerate() {
             let ph = -core::f64::consts::TAU * k as f64 / K as f64;
             *t = Complex32::new(libm::cos(ph) as f32, libm::sin(ph) as f32);
         }
-        Ok(Self {
-            waveform,
-            geometry,
-            params,
-            layout,
-            coupling: None,
-            range: RangeFft::new(params.range_window),
-            doppler_window: params.doppler_window.coefficients(),
-            twiddle,
-            az_mu,
-            az_beam,
-            pairs,
-            pair_count,
-            kappa_del: (kappa * f64::from(del)) as f32,
-            range_bin_m: waveform.range_bin_m(N) as f32,
-            doppler_bin_mps: waveform.doppler_bin_mps(N, K, TX) as f32,
-        })
+        self.params = params;
+        self.layout = layout;
+        self.doppler_window = params.doppler_window.coefficients();
+        self.pairs = pairs;
+        self.pair_count = pair_count;
+        self.kappa_del = (kappa * f64::from(del)) as f32;
+        self.range_bin_m = frontend.range_bin_m();
+        self.doppler_bin_mps = frontend.doppler_bin_mps();
+        Ok(())
     }
 
-    /// Attach a coupling calibration in data order `[tx][rx][range bin]`, subtracted from the
-    /// range-FFT output of every chirp, exactly as [`crate::Dbe::with_coupling`].
-    pub fn with_coupling(
-        mut self,
-        coupling: &[[&[Complex32]; RX]; TX],
-    ) -> Result<Self, ConfigError> {
-        let mut table = [[ZERO; N]; M];
-        for (t, per_rx) in coupling.iter().enumerate() {
-            for (r, bins) in per_rx.iter().enumerate() {
-                if bins.len() > N {
-                    return Err(ConfigError::OutOfRange(Param::Coupling));
-                }
-                let row = usize::from(self.layout.row_of[t][r]);
-                for (dst, src) in table[row].iter_mut().zip(bins.iter()) {
-                    if !(src.re.is_finite() && src.im.is_finite()) {
-                        return Err(ConfigError::NotFinite(Param::Coupling));
-                    }
-                    *dst = *src;
-                }
-            }
-        }
-        self.coupling = Some(table);
-        Ok(self)
-    }
-
-    /// The waveform.
-    pub fn waveform(&self) -> &Waveform {
-        &self.waveform
-    }
-
-    /// The antenna geometry.
-    pub fn geometry(&self) -> &AntennaGeometry<TX, RX> {
-        &self.geometry
+    /// The cube row order of the frontend the chain was configured from.
+    pub fn layout(&self) -> &ArrayLayout<TX, RX, M> {
+        &self.layout
     }
 
     /// The processing parameters.
     pub fn params(&self) -> &FftParams {
         &self.params
-    }
-
-    /// The cube row order derived from the geometry (identical to the DBE chain's).
-    pub fn layout(&self) -> &ArrayLayout<TX, RX, M> {
-        &self.layout
     }
 
     /// Direction cosine μ = sin φ of each azimuth grid bin (identical to the DBE chain's).
@@ -428,46 +419,23 @@ impl<
         self.doppler_bin_mps
     }
 
-    /// Ingest one chirp exactly as [`crate::Dbe::push_chirp`]: `chirp[rx][sample] = [I, Q]`
-    /// of TX slot `id.tx_slot` in loop `id.loop_index`, in TDM order; any other chirp is not
-    /// stored and makes the frame an error until [`Cube::begin_frame`].
-    pub fn push_chirp(
-        &self,
-        cube: &mut Cube<'_, N, M, K>,
-        id: ChirpId,
-        chirp: &[[[i16; 2]; N]; RX],
-    ) -> Result<(), FrameError> {
-        crate::range::ingest(
-            &self.range,
-            &self.layout.row_of,
-            self.coupling.as_ref(),
-            cube,
-            id,
-            chirp,
-        )
-    }
-
-    /// Process a complete frame into `out`. Fails only when the cube is not a complete,
-    /// in-order frame; never panics. The workspace keeps the range–Doppler map and the
-    /// detections for inspection.
-    pub fn process<const DET: usize, const P: usize>(
-        &self,
-        cube: &Cube<'_, N, M, K>,
-        work: &mut FftWorkspace<N, M, K, DET>,
-        out: &mut PointCloud<P>,
-    ) -> Result<(), FrameError> {
-        out.clear();
-        cube.status(TX)?;
+    /// The processed range bins `first..=last`.
+    fn range_window(&self) -> (usize, usize) {
         let first = usize::from(self.params.range_first);
         let last = usize::from(self.params.range_last).min(N - 1);
+        (first, last)
+    }
 
-        // Stage 1: Doppler FFT per range bin and row into one scratch, non-coherent sum.
+    /// Stage 1: the range–Doppler map. Doppler FFT per range bin and row into one scratch,
+    /// non-coherent sum over the rows.
+    pub fn doppler_map(&self, frame: &Frame<'_, N, K, M>, work: &mut FftWorkspace<N, K, M, DET>) {
+        let (first, last) = self.range_window();
         for row in work.rd.iter_mut() {
             *row = [0.0; K];
         }
         let mut buf = [ZERO; K];
         for (b, rd) in work.rd.iter_mut().enumerate().take(last + 1).skip(first) {
-            cube.snapshots(b, &mut work.block);
+            frame.snapshots(b, &mut work.block);
             for x in work.block.iter() {
                 for ((o, v), w) in buf.iter_mut().zip(x.iter()).zip(self.doppler_window.iter()) {
                     *o = *v * *w;
@@ -478,20 +446,37 @@ impl<
                 }
             }
         }
+    }
 
-        // Stage 2: CFAR on the range–Doppler map.
-        rd_cfar::detect(
-            &work.rd,
+    /// Stage 2: CFAR on the range–Doppler map (Doppler periodic).
+    pub fn detect_targets(&self, work: &mut FftWorkspace<N, K, M, DET>) {
+        let (first, last) = self.range_window();
+        let shape = MapShape {
             first,
             last,
+            columns: Columns::Periodic,
+        };
+        cfar::detect(
+            &work.rd,
+            None,
+            shape,
             &self.params.cfar,
             &mut work.scratch,
             &mut work.detections,
         );
+    }
+
+    /// Stage 3: angles and a point per detection (one dequantisation per distinct bin), and
+    /// the frame's statistics.
+    pub fn angles<const P: usize>(
+        &self,
+        frame: &Frame<'_, N, K, M>,
+        work: &mut FftWorkspace<N, K, M, DET>,
+        out: &mut PointCloud<P>,
+    ) {
+        out.clear();
         out.stats.detections = work.detections.as_slice().len() as u32;
         out.stats.detection_overflow = work.detections.overflow;
-
-        // Stage 3: angles and a point per detection (one dequantisation per distinct bin).
         let FftWorkspace {
             block,
             rd,
@@ -503,19 +488,18 @@ impl<
             let before = out.stats.points + out.stats.point_overflow;
             let b = usize::from(det.range_bin);
             if b != block_bin {
-                cube.snapshots(b, block);
+                frame.snapshots(b, block);
                 block_bin = b;
             }
-            self.resolve(det, block, rd, out);
+            self.resolve_detection(det, block, rd, out);
             if out.stats.points + out.stats.point_overflow == before {
                 out.stats.detections_without_point += 1;
             }
         }
-        Ok(())
     }
 
     /// The windowed Doppler bin `d` (natural index) of every row, TDM-compensated when on.
-    fn doppler_cell(&self, snap: &[[Complex32; K]; M], d: usize, signed: i16) -> [Complex32; M] {
+    fn doppler_cell(&self, snap: &Snapshots<K, M>, d: usize, signed: i16) -> [Complex32; M] {
         let mut x = [ZERO; M];
         for (o, row) in x.iter_mut().zip(snap.iter()) {
             let mut acc = ZERO;
@@ -526,25 +510,25 @@ impl<
             *o = acc;
         }
         if self.params.tdm_compensation {
-            // exp(−j·4π·v·t·Tc/λ) with v = d'·λ/(2·K·TX·Tc) is exp(−j·2π·d'·t/(K·TX)).
-            let per_slot = -core::f32::consts::TAU * f32::from(signed) / (K * TX) as f32;
-            for (v, &slot) in x.iter_mut().zip(self.layout.slot.iter()) {
-                *v *= Complex32::from_polar(1.0, per_slot * f32::from(slot));
+            let rot = tdm::rotation::<K, TX, M>(&self.layout.slot, f32::from(signed));
+            for (v, r) in x.iter_mut().zip(rot.iter()) {
+                *v *= r;
             }
         }
         x
     }
 
     /// Azimuth, elevation and the point of one detection.
-    fn resolve<const P: usize>(
+    fn resolve_detection<const P: usize>(
         &self,
-        det: &RdDetection,
-        snap: &[[Complex32; K]; M],
+        det: &Detection,
+        snap: &Snapshots<K, M>,
         rd: &[[f32; K]; N],
         out: &mut PointCloud<P>,
     ) {
-        let d = (i32::from(det.doppler_bin).rem_euclid(K as i32)) as usize;
-        let x = self.doppler_cell(snap, d, det.doppler_bin);
+        let d = usize::from(det.column) & (K - 1);
+        let signed = signed_bin::<K>(d);
+        let x = self.doppler_cell(snap, d, signed);
 
         // Azimuth: beamscan of the line on the μ grid; an end-of-grid peak is out of span.
         let beam_power = |beam: &[Complex32; AZ]| {
@@ -567,7 +551,7 @@ impl<
         }
         let b = usize::from(det.range_bin);
         let (mut range_bins, mut doppler_bins, mut mu) =
-            (b as f32, f32::from(det.doppler_bin), self.az_mu[i]);
+            (b as f32, f32::from(signed), self.az_mu[i]);
         if self.params.subgrid {
             let at = |b: Option<usize>, d: usize| {
                 b.and_then(|b| rd.get(b))
@@ -586,41 +570,69 @@ impl<
         }
 
         // Elevation: phase of the pair products (line element × conj(elevation element)).
-        let mut z = ZERO;
-        for &(a, e) in self.elevation_pairs() {
-            if let (Some(xa), Some(xe)) = (x.get(usize::from(a)), x.get(usize::from(e))) {
-                z += xa * xe.conj();
-            }
-        }
-        if !(z.norm_sqr() > 0.0) {
+        let Some(nu) = elevation::phase_difference(&x, self.elevation_pairs(), self.kappa_del)
+        else {
             return;
-        }
-        let nu = libm::atan2f(z.im, z.re) / self.kappa_del;
-        let cos2 = 1.0 - mu * mu - nu * nu;
-        if !(cos2 > 0.0) {
+        };
+        let Some(point) = Point::at(range_bins * self.range_bin_m, mu, nu) else {
             return;
-        }
-        let range = range_bins * self.range_bin_m;
+        };
         out.push(Point {
-            position: glam::Vec3::new(range * libm::sqrtf(cos2), -range * mu, range * nu),
             velocity_mps: doppler_bins * self.doppler_bin_mps,
-            power_db: 10.0 * libm::log10f(det.power.max(f32::MIN_POSITIVE)),
+            power_db: power_db(det.power),
             snr_db: ratio_db(det.power, det.level),
             range_bin: det.range_bin,
             azimuth_bin: i as u16,
-            elevation_bin: self.elevation_bin(nu),
-            doppler_bin: det.doppler_bin,
+            elevation_bin: elevation::nearest_bin::<NEL>(nu, self.params.elevation_span_deg),
+            doppler_bin: signed,
+            ..point
         });
     }
+}
 
-    /// The nearest bin of the `NEL`-bin elevation grid (linear in θ over the span, as the
-    /// DBE chain's), clamped to its ends.
-    fn elevation_bin(&self, nu: f32) -> u16 {
-        let (e0, e1) = self.params.elevation_span_deg;
-        let theta = libm::asinf(nu.clamp(-1.0, 1.0)).to_degrees();
-        let step = (e1 - e0) / (NEL - 1) as f32;
-        let j = libm::roundf((theta - e0) / step);
-        // `as` saturates (NaN → 0); the clamp keeps the index on the grid.
-        (j.max(0.0) as usize).min(NEL - 1) as u16
+impl<
+        const N: usize,
+        const K: usize,
+        const TX: usize,
+        const RX: usize,
+        const M: usize,
+        const AZ: usize,
+        const NAZ: usize,
+        const NEL: usize,
+        const DET: usize,
+    > Chain<N, K, TX, RX, M, AZ> for FftChain<N, K, TX, RX, M, AZ, NAZ, NEL, DET>
+{
+    const NAME: &'static str = "fft";
+    const STAGES: [&'static str; 3] = ["doppler_fft", "rd_cfar", "angles"];
+    type Params = FftParams;
+    type Workspace = FftWorkspace<N, K, M, DET>;
+
+    fn configure(
+        &mut self,
+        frontend: &Frontend<N, K, TX, RX, M, AZ>,
+        params: FftParams,
+    ) -> Result<(), ConfigError> {
+        FftChain::configure(self, frontend, params)
+    }
+
+    fn map(&self, frame: &Frame<'_, N, K, M>, work: &mut Self::Workspace) {
+        self.doppler_map(frame, work);
+    }
+
+    fn detect(&self, work: &mut Self::Workspace) {
+        self.detect_targets(work);
+    }
+
+    fn points<const P: usize>(
+        &self,
+        frame: &Frame<'_, N, K, M>,
+        work: &mut Self::Workspace,
+        out: &mut PointCloud<P>,
+    ) {
+        self.angles(frame, work, out);
+    }
+
+    fn detections(work: &Self::Workspace) -> &[Detection] {
+        work.detections()
     }
 }

@@ -2,7 +2,8 @@
 #![allow(dead_code)]
 
 use dbe_radar::config::SPEED_OF_LIGHT;
-use dbe_radar::{AntennaGeometry, ChirpId, Waveform};
+use dbe_radar::presets::coloradar as p;
+use dbe_radar::{AntennaGeometry, ChirpId, ConfigError, Params, Waveform};
 use rand::{Rng, SeedableRng};
 
 /// A point scatterer: position (m) at the frame start, velocity (m/s), amplitude (LSB).
@@ -115,11 +116,23 @@ pub fn id(i: usize, tx: usize) -> ChirpId {
 }
 
 /// Heap storage for a cube (never on the test thread's stack).
-pub fn storage<const N: usize, const M: usize, const K: usize>(
-) -> Box<dbe_radar::cube::CubeStorage<N, M, K>> {
+pub fn storage<const N: usize, const K: usize, const M: usize>(
+) -> Box<dbe_radar::cube::CubeStorage<N, K, M>> {
     let v = vec![[[[0i16; 2]; K]; M]; N];
     match v.into_boxed_slice().try_into() {
         Ok(b) => b,
         Err(_) => unreachable!("length is N"),
     }
+}
+
+/// The ColoRadar-preset frontend and DBE chain for `w`, `g` and `params`: the frontend's
+/// error if it rejects the sensor, else the chain's.
+pub fn dbe_for(
+    w: Waveform,
+    g: AntennaGeometry<3, 4>,
+    params: Params,
+) -> Result<(p::Frontend, p::Dbe), ConfigError> {
+    let frontend = p::Frontend::new(w, g, params.range_window)?;
+    let dbe = p::Dbe::new(&frontend, params)?;
+    Ok((frontend, dbe))
 }

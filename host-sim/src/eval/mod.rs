@@ -260,7 +260,9 @@ impl SweepValue {
         match *self {
             SweepValue::Loading(g) => params.loading = g,
             SweepValue::CfarThreshold(a) => params.cfar.threshold_db = a,
-            SweepValue::CfarQuantile(q) => params.cfar.quantile = q,
+            SweepValue::CfarQuantile(q) => {
+                params.cfar.kind = dbe_radar::CfarKind::OrderStatistic { quantile: q }
+            }
             SweepValue::ElevationPeaks(n, r) => {
                 params.elevation.max_peaks = n;
                 params.elevation.peak_range_db = r;

@@ -600,7 +600,7 @@ fn detection_section(m: &mut String, e: &Evaluation) {
             _ => format!("from {lowest} dB"),
         }
     };
-    let alpha_db = f64::from(dbe_radar::config::CfarParams::DEFAULT.threshold_db);
+    let alpha_db = f64::from(dbe_radar::CfarParams::RANGE_AZIMUTH.threshold_db);
     let ratio = 10f64.powf(alpha_db / 10.0);
     let rho_db = 10.0 * ((ratio - 1.0) / 8.0).log10();
     let _ = writeln!(m, "\nMeasured: the DBE chain detects 90 % or more of the targets {}, the FFT chain {}. \
@@ -953,7 +953,7 @@ fn defaults_section(m: &mut String, e: &Evaluation) {
         per SNR; P(resolved) of non-coherent / coherent pairs per separation; false points per noise-only \
         frame and per scene frame; point-target detection in the scenes; points per extended-scene frame; \
         Chamfer distance at {} m against the default's on the same frames.\n",
-        dbe_radar::config::CfarParams::DEFAULT.threshold_db,
+        dbe_radar::CfarParams::RANGE_AZIMUTH.threshold_db,
         c.sweep_snr_db, c.sweep_separations_deg, c.resolution_snr_db, e.defaults_resolution_m);
     let _ = write!(m, "| parameter | value |");
     for s in &c.sweep_snr_db {

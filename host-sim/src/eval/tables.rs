@@ -926,7 +926,7 @@ fn goals(e: &Evaluation) -> Vec<Goal> {
             detail.push_str(&format!(
                 ". The defaults sweep shows it: with α = {} dB instead of {} dB the DBE chain gives {} points per frame and a mean Chamfer distance of {:.3} m at {} m, against the FFT chain's {} m (Chamfer section)",
                 r.value,
-                dbe_radar::config::CfarParams::DEFAULT.threshold_db,
+                dbe_radar::CfarParams::RANGE_AZIMUTH.threshold_db,
                 fmt_opt(ext(&r.variant), 1),
                 cd,
                 e.defaults_resolution_m,

@@ -1,0 +1,228 @@
+//! The frontend both chains share: chirps in, a checked [`Frame`] out.
+//!
+//! ```text
+//! push_chirp : TDM order check → per RX: DC removal, window, range FFT (range.rs)
+//!              → − coupling calibration of its cube row → Cube[bin][row][loop]
+//! frame      : all K·TX chirps in order? → Frame (else FrameError)
+//! ```
+//!
+//! The frontend owns what depends on the sensor alone: the waveform, the antenna geometry and
+//! the cube row order derived from it ([`ArrayLayout`]), the range window, and the optional
+//! coupling calibration. A chain is configured from a frontend ([`crate::Dbe::configure`],
+//! [`crate::FftChain::configure`]) and processes the frames it fills; both chains can process
+//! one frame, which is how they are compared.
+
+use num_complex::Complex32;
+
+use crate::config::{AntennaGeometry, ArrayLayout, ConfigError, Param, Waveform};
+use crate::cube::{ChirpId, Cube, Frame, FrameError};
+use crate::range::RangeFft;
+use crate::window::WindowKind;
+
+const ZERO: Complex32 = Complex32::new(0.0, 0.0);
+
+/// Waveform, geometry, range window and coupling calibration; `push_chirp` and `frame`.
+///
+/// Const generics: `N` samples per chirp (= range bins), `K` loops per frame, `TX`, `RX`,
+/// `M = TX·RX` virtual antennas of which `AZ` form the azimuth line.
+#[derive(Clone, Debug)]
+pub struct Frontend<
+    const N: usize,
+    const K: usize,
+    const TX: usize,
+    const RX: usize,
+    const M: usize,
+    const AZ: usize,
+> {
+    waveform: Waveform,
+    geometry: AntennaGeometry<TX, RX>,
+    layout: ArrayLayout<TX, RX, M>,
+    range: RangeFft<N>,
+    range_window: WindowKind,
+    /// Coupling calibration per cube row (all zero, and unused, when `coupling_on` is false).
+    coupling: [[Complex32; N]; M],
+    coupling_on: bool,
+    configured: bool,
+}
+
+impl<
+        const N: usize,
+        const K: usize,
+        const TX: usize,
+        const RX: usize,
+        const M: usize,
+        const AZ: usize,
+    > Frontend<N, K, TX, RX, M, AZ>
+{
+    /// Validate the waveform and geometry and precompute the range window.
+    pub fn new(
+        waveform: Waveform,
+        geometry: AntennaGeometry<TX, RX>,
+        range_window: WindowKind,
+    ) -> Result<Self, ConfigError> {
+        let mut f = Self::unconfigured();
+        f.configure(waveform, geometry, range_window)?;
+        Ok(f)
+    }
+
+    /// A frontend whose every byte is zero, `const`, so that a `static` of it lands in `.bss`;
+    /// [`Self::configure`] it in place before use. Unconfigured, it stores zeros.
+    pub const fn unconfigured() -> Self {
+        Self {
+            waveform: Waveform::ZEROED,
+            geometry: AntennaGeometry {
+                tx: [(0.0, 0.0); TX],
+                rx: [(0.0, 0.0); RX],
+                f_design_hz: 0.0,
+            },
+            layout: ArrayLayout {
+                row_of: [[0; RX]; TX],
+                az: [0.0; M],
+                el: [0.0; M],
+                slot: [0; M],
+            },
+            range: RangeFft::unconfigured(),
+            range_window: WindowKind::Rectangular,
+            coupling: [[ZERO; N]; M],
+            coupling_on: false,
+            configured: false,
+        }
+    }
+
+    /// Validate and configure in place. On error `self` is unchanged. Any coupling
+    /// calibration is removed.
+    pub fn configure(
+        &mut self,
+        waveform: Waveform,
+        geometry: AntennaGeometry<TX, RX>,
+        range_window: WindowKind,
+    ) -> Result<(), ConfigError> {
+        const {
+            assert!(M == TX * RX, "M must equal TX · RX");
+            assert!(AZ >= 2 && AZ < M, "the azimuth line needs 2..M elements");
+            assert!(N.is_power_of_two() && K.is_power_of_two());
+            assert!(N <= u16::MAX as usize && K <= i16::MAX as usize);
+        };
+        waveform.validate()?;
+        let layout = ArrayLayout::new(&geometry, AZ)?;
+        self.waveform = waveform;
+        self.geometry = geometry;
+        self.layout = layout;
+        self.range = RangeFft::new(range_window);
+        self.range_window = range_window;
+        self.coupling_on = false;
+        self.configured = true;
+        Ok(())
+    }
+
+    /// [`Self::set_coupling`], by value.
+    pub fn with_coupling(
+        mut self,
+        coupling: &[[&[Complex32]; RX]; TX],
+    ) -> Result<Self, ConfigError> {
+        self.set_coupling(coupling)?;
+        Ok(self)
+    }
+
+    /// Attach a coupling calibration in data order `[tx][rx][range bin]`, subtracted from the
+    /// range-FFT output of every chirp (same units: unnormalised FFT of the windowed,
+    /// DC-removed chirp). Range bins beyond a table's length are not corrected. On error the
+    /// previous calibration is kept.
+    pub fn set_coupling(&mut self, coupling: &[[&[Complex32]; RX]; TX]) -> Result<(), ConfigError> {
+        for bins in coupling.iter().flatten() {
+            if bins.len() > N {
+                return Err(ConfigError::OutOfRange(Param::Coupling));
+            }
+            if bins.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())) {
+                return Err(ConfigError::NotFinite(Param::Coupling));
+            }
+        }
+        for row in self.coupling.iter_mut() {
+            *row = [ZERO; N];
+        }
+        for (t, per_rx) in coupling.iter().enumerate() {
+            for (r, bins) in per_rx.iter().enumerate() {
+                let row = usize::from(self.layout.row_of[t][r]);
+                if let Some(dst) = self.coupling.get_mut(row) {
+                    for (d, s) in dst.iter_mut().zip(bins.iter()) {
+                        *d = *s;
+                    }
+                }
+            }
+        }
+        self.coupling_on = true;
+        Ok(())
+    }
+
+    /// Whether [`Self::configure`] has succeeded (chains refuse an unconfigured frontend).
+    pub fn is_configured(&self) -> bool {
+        self.configured
+    }
+
+    /// The waveform.
+    pub fn waveform(&self) -> &Waveform {
+        &self.waveform
+    }
+
+    /// The antenna geometry.
+    pub fn geometry(&self) -> &AntennaGeometry<TX, RX> {
+        &self.geometry
+    }
+
+    /// The cube row order derived from the geometry.
+    pub fn layout(&self) -> &ArrayLayout<TX, RX, M> {
+        &self.layout
+    }
+
+    /// The range window.
+    pub fn range_window(&self) -> WindowKind {
+        self.range_window
+    }
+
+    /// Metres per range bin, `c · fs / (2 · S · N)`.
+    pub fn range_bin_m(&self) -> f32 {
+        self.waveform.range_bin_m(N) as f32
+    }
+
+    /// m/s per Doppler bin, `λ / (2 · K · T_loop)`.
+    pub fn doppler_bin_mps(&self) -> f32 {
+        self.waveform.doppler_bin_mps(N, K, TX) as f32
+    }
+
+    /// Ingest one chirp: `chirp[rx][sample] = [I, Q]` of TX slot `id.tx_slot` in loop
+    /// `id.loop_index`, as the ADC delivers it. Chirps must come in TDM order (loop 0 slot 0,
+    /// loop 0 slot 1, …); any other chirp is not stored and makes the frame an error (returned
+    /// here and by [`Self::frame`]) until [`Cube::begin_frame`].
+    pub fn push_chirp(
+        &self,
+        cube: &mut Cube<'_, N, K, M>,
+        id: ChirpId,
+        chirp: &[[[i16; 2]; N]; RX],
+    ) -> Result<(), FrameError> {
+        let Some(k) = cube.accept(id, TX) else {
+            return cube.frame(TX).and(Err(FrameError::TooManyChirps));
+        };
+        let Some(rows) = self.layout.row_of.get(usize::from(id.tx_slot)) else {
+            return Ok(());
+        };
+        let coupling = self.coupling_on.then_some(&self.coupling);
+        let mut spectrum = [ZERO; N];
+        for (samples, &row) in chirp.iter().zip(rows.iter()) {
+            let row = usize::from(row);
+            self.range.process(samples, &mut spectrum);
+            if let Some(c) = coupling.and_then(|c| c.get(row)) {
+                for (s, c) in spectrum.iter_mut().zip(c.iter()) {
+                    *s -= *c;
+                }
+            }
+            cube.store(row, k, &spectrum);
+        }
+        Ok(())
+    }
+
+    /// The cube's frame when all `K · TX` chirps arrived in order, else a [`FrameError`]
+    /// naming the missing, repeated or out-of-order chirp.
+    pub fn frame<'c>(&self, cube: &'c Cube<'_, N, K, M>) -> Result<Frame<'c, N, K, M>, FrameError> {
+        cube.frame(TX)
+    }
+}
