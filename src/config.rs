@@ -151,6 +151,14 @@ pub struct ArrayLayout<const TX: usize, const RX: usize, const M: usize> {
 }
 
 impl<const TX: usize, const RX: usize, const M: usize> ArrayLayout<TX, RX, M> {
+    /// Every field zero: the layout of an unconfigured frontend or chain (all-zero bytes).
+    pub(crate) const ZEROED: Self = Self {
+        row_of: [[0; RX]; TX],
+        az: [0.0; M],
+        el: [0.0; M],
+        slot: [0; M],
+    };
+
     /// Sort the virtual array into an azimuth line of `az` elements followed by the rest.
     ///
     /// The azimuth line is the `az` elements at the lowest elevation; it must be a uniform line

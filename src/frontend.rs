@@ -25,6 +25,47 @@ const ZERO: Complex32 = Complex32::new(0.0, 0.0);
 ///
 /// Const generics: `N` samples per chirp (= range bins), `K` loops per frame, `TX`, `RX`,
 /// `M = TX·RX` virtual antennas of which `AZ` form the azimuth line.
+///
+/// An impossible shape is a compile error (`const` assertions in [`Self::configure`]), not a
+/// run-time one. The ColoRadar shape compiles:
+///
+/// ```
+/// use dbe_radar::{window::WindowKind, AntennaGeometry, Frontend, Waveform};
+/// let (w, g) = (Waveform::COLORADAR, AntennaGeometry::COLORADAR);
+/// assert!(Frontend::<128, 128, 3, 4, 12, 8>::new(w, g, WindowKind::Blackman).is_ok());
+/// ```
+///
+/// 100 samples per chirp (no radix-2 FFT) does not:
+///
+/// ```compile_fail,E0080
+/// use dbe_radar::{window::WindowKind, AntennaGeometry, Frontend, Waveform};
+/// let (w, g) = (Waveform::COLORADAR, AntennaGeometry::COLORADAR);
+/// let _ = Frontend::<100, 128, 3, 4, 12, 8>::new(w, g, WindowKind::Blackman);
+/// ```
+///
+/// nor 96 loops:
+///
+/// ```compile_fail,E0080
+/// use dbe_radar::{window::WindowKind, AntennaGeometry, Frontend, Waveform};
+/// let (w, g) = (Waveform::COLORADAR, AntennaGeometry::COLORADAR);
+/// let _ = Frontend::<128, 96, 3, 4, 12, 8>::new(w, g, WindowKind::Blackman);
+/// ```
+///
+/// nor `M ≠ TX · RX`:
+///
+/// ```compile_fail,E0080
+/// use dbe_radar::{window::WindowKind, AntennaGeometry, Frontend, Waveform};
+/// let (w, g) = (Waveform::COLORADAR, AntennaGeometry::COLORADAR);
+/// let _ = Frontend::<128, 128, 3, 4, 10, 8>::new(w, g, WindowKind::Blackman);
+/// ```
+///
+/// nor an azimuth line as long as the whole array (no elevation row):
+///
+/// ```compile_fail,E0080
+/// use dbe_radar::{window::WindowKind, AntennaGeometry, Frontend, Waveform};
+/// let (w, g) = (Waveform::COLORADAR, AntennaGeometry::COLORADAR);
+/// let _ = Frontend::<128, 128, 3, 4, 12, 12>::new(w, g, WindowKind::Blackman);
+/// ```
 #[derive(Clone, Debug)]
 pub struct Frontend<
     const N: usize,
@@ -75,12 +116,7 @@ impl<
                 rx: [(0.0, 0.0); RX],
                 f_design_hz: 0.0,
             },
-            layout: ArrayLayout {
-                row_of: [[0; RX]; TX],
-                az: [0.0; M],
-                el: [0.0; M],
-                slot: [0; M],
-            },
+            layout: ArrayLayout::ZEROED,
             range: RangeFft::unconfigured(),
             range_window: WindowKind::Rectangular,
             coupling: [[ZERO; N]; M],

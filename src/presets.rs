@@ -22,6 +22,7 @@
 /// }
 /// assert_eq!(toy::VIRTUAL, 8);
 /// assert_eq!(toy::AZIMUTH_STEP_DEG, 140.0 / 60.0);
+/// assert_eq!(toy::AZIMUTH_FIRST_DEG + 60.0 * toy::AZIMUTH_STEP_DEG, 70.0);
 /// let frontend = toy::frontend().unwrap();
 /// assert!(toy::dbe(&frontend).is_ok());
 /// ```
@@ -57,16 +58,22 @@ macro_rules! preset {
             /// Point capacity per frame (`P`).
             pub const POINTS: usize = $p;
 
-            /// Azimuth grid step of the default span, degrees.
-            pub const AZIMUTH_STEP_DEG: f32 = {
+            /// Azimuth grid step of the default span, degrees (f64: exact for tolerances).
+            pub const AZIMUTH_STEP_DEG: f64 = {
                 let s = $crate::Params::defaults(SAMPLES).azimuth_span_deg;
-                (s.1 - s.0) / (AZIMUTH_BINS - 1) as f32
+                (s.1 as f64 - s.0 as f64) / (AZIMUTH_BINS - 1) as f64
             };
             /// Elevation grid step of the default span, degrees.
-            pub const ELEVATION_STEP_DEG: f32 = {
+            pub const ELEVATION_STEP_DEG: f64 = {
                 let s = $crate::Params::defaults(SAMPLES).elevation_span_deg;
-                (s.1 - s.0) / (ELEVATION_BINS - 1) as f32
+                (s.1 as f64 - s.0 as f64) / (ELEVATION_BINS - 1) as f64
             };
+            /// First azimuth grid angle of the default span, degrees.
+            pub const AZIMUTH_FIRST_DEG: f64 =
+                $crate::Params::defaults(SAMPLES).azimuth_span_deg.0 as f64;
+            /// First elevation grid angle of the default span, degrees.
+            pub const ELEVATION_FIRST_DEG: f64 =
+                $crate::Params::defaults(SAMPLES).elevation_span_deg.0 as f64;
 
             /// The sensor's default waveform.
             pub const WAVEFORM: $crate::Waveform = $waveform;

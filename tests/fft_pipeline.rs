@@ -36,7 +36,7 @@ use dbe_radar::{
     PointCloud, Waveform,
 };
 
-const AZ_STEP_DEG: f64 = p::AZIMUTH_STEP_DEG as f64;
+const AZ_STEP_DEG: f64 = p::AZIMUTH_STEP_DEG;
 
 struct Run {
     cloud: Box<p::PointCloud>,
@@ -969,7 +969,7 @@ fn subgrid_refinement_beats_grid_quantisation() {
             let est = pt.position.as_dvec3();
             let e = [
                 (est.length() - range) / f64::from(c.range_bin_m()),
-                ((-est.y / est.length()).asin() - mu.asin()).to_degrees() / (140.0 / 187.0),
+                ((-est.y / est.length()).asin() - mu.asin()).to_degrees() / AZ_STEP_DEG,
                 (f64::from(pt.velocity_mps) - v) / f64::from(c.doppler_bin_mps()),
             ];
             for (acc, x) in sum[k].iter_mut().zip(e.iter()) {

@@ -9,8 +9,8 @@ use common::{dbe_for, id, storage, synth, Target};
 use dbe_radar::presets::coloradar as p;
 use dbe_radar::{AntennaGeometry, Chain, Params, Point, Waveform};
 
-const AZ_STEP_DEG: f64 = p::AZIMUTH_STEP_DEG as f64;
-const EL_STEP_DEG: f64 = p::ELEVATION_STEP_DEG as f64;
+const AZ_STEP_DEG: f64 = p::AZIMUTH_STEP_DEG;
+const EL_STEP_DEG: f64 = p::ELEVATION_STEP_DEG;
 
 struct Run {
     cloud: Box<p::PointCloud>,

@@ -373,8 +373,9 @@ fn firmware_finds_the_scene() {
         let range_bin = wf.range_bin_m(128);
         let doppler_bin = wf.doppler_bin_mps(128, 128, 3);
         for &(r, az, el, v, _) in &firmware::COLORADAR_SCATTERERS {
-            let az_bin = (az + 70.0) / (140.0 / 187.0);
-            let el_bin = (el + 25.0) / 0.5;
+            use dbe_radar::presets::coloradar as c;
+            let az_bin = (az - c::AZIMUTH_FIRST_DEG) / c::AZIMUTH_STEP_DEG;
+            let el_bin = (el - c::ELEVATION_FIRST_DEG) / c::ELEVATION_STEP_DEG;
             let found = fw.points.iter().any(|p| {
                 (f64::from(p.range_bin) - r / range_bin).abs() <= 1.0
                     && (f64::from(p.azimuth_bin) - az_bin).abs() <= 2.0
@@ -399,8 +400,10 @@ fn firmware_finds_the_scene() {
             .iter()
             .find(|p| p.range_bin.abs_diff(38) <= 1)
             .unwrap_or_else(|| panic!("{image}: no point at range bin 38: {:#?}", fw.points));
-        let az_deg = -70.0 + f64::from(reflector.azimuth_bin) * 140.0 / 187.0;
-        let el_deg = -25.0 + f64::from(reflector.elevation_bin) * 0.5;
+        use dbe_radar::presets::iwr6843 as i;
+        let az_deg = i::AZIMUTH_FIRST_DEG + f64::from(reflector.azimuth_bin) * i::AZIMUTH_STEP_DEG;
+        let el_deg =
+            i::ELEVATION_FIRST_DEG + f64::from(reflector.elevation_bin) * i::ELEVATION_STEP_DEG;
         assert!(
             az_deg.abs() < 10.0 && el_deg.abs() < 10.0,
             "{image}: {reflector:?}"

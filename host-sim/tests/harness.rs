@@ -195,8 +195,8 @@ fn subgrid_refinement_agrees_and_moves_points_towards_the_truth() -> TestResult 
     let (_, reference) = run_both(&sensor, &params, &frame, &ReferenceOptions::CORE_CONTRACT)?;
     let d = derived(&sensor);
     let frame_time = sensor.loops as f64 * d.t_loop;
-    let az_step = 140.0 / 187.0;
-    let el_step = 0.5;
+    let az_step = dbe_radar::presets::coloradar::AZIMUTH_STEP_DEG;
+    let el_step = dbe_radar::presets::coloradar::ELEVATION_STEP_DEG;
     for t in &targets {
         let range_mid = t.range() + t.radial_velocity * frame_time / 2.0;
         let (mu, nu) = t.direction();

@@ -49,7 +49,10 @@ fn expected_pixel(a: &Axes, x: f64, y: f64) -> (u32, u32) {
 
 /// The paper's azimuth grid: 188 bins over ±70°.
 fn azimuth_grid() -> Vec<f64> {
-    (0..188).map(|i| -70.0 + 140.0 * i as f64 / 187.0).collect()
+    use dbe_radar::presets::coloradar as p;
+    (0..p::AZIMUTH_BINS)
+        .map(|i| p::AZIMUTH_FIRST_DEG + p::AZIMUTH_STEP_DEG * i as f64)
+        .collect()
 }
 
 #[test]
@@ -67,7 +70,7 @@ fn range_azimuth_heatmap_puts_the_peak_on_its_cell() -> TestResult {
     assert_eq!((img.0, img.1), RA_SIZE);
 
     // Cells are centred on their bins: the data area spans half a step beyond the end bins.
-    let step = 140.0 / 187.0;
+    let step = dbe_radar::presets::coloradar::AZIMUTH_STEP_DEG;
     assert!((axes.x_range.0 - (-70.0 - step / 2.0)).abs() < 1e-9);
     assert!((axes.x_range.1 - (70.0 + step / 2.0)).abs() < 1e-9);
     assert!((axes.y_range.0 + range_bin_m / 2.0).abs() < 1e-12);

@@ -314,12 +314,7 @@ impl<
     pub const fn unconfigured() -> Self {
         Self {
             params: FftParams::ZEROED,
-            layout: ArrayLayout {
-                row_of: [[0; RX]; TX],
-                az: [0.0; M],
-                el: [0.0; M],
-                slot: [0; M],
-            },
+            layout: ArrayLayout::ZEROED,
             doppler_window: [0.0; K],
             twiddle: [ZERO; K],
             az_mu: [0.0; NAZ],

@@ -11,9 +11,9 @@ use super::snr::db_to_linear;
 use super::{names, sweep_name, EvalConfig, EvalError, SweepValue};
 
 /// Azimuth grid step of the DBE and FFT chains, degrees (188 bins over ±70°).
-pub const AZIMUTH_STEP_DEG: f64 = 140.0 / 187.0;
+pub const AZIMUTH_STEP_DEG: f64 = dbe_radar::presets::coloradar::AZIMUTH_STEP_DEG;
 /// Elevation grid step of the DBE chain, degrees (101 bins over ±25°).
-pub const ELEVATION_STEP_DEG: f64 = 0.5;
+pub const ELEVATION_STEP_DEG: f64 = dbe_radar::presets::coloradar::ELEVATION_STEP_DEG;
 /// Number of extended scenes in the Chamfer goal (the first entries of [`SCENES`]).
 pub const EXTENDED_SCENES: usize = 4;
 
