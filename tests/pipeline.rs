@@ -1,7 +1,29 @@
 //! End-to-end accuracy of the core on synthetic frames built from the spec §2 signal model.
 //!
-//! Tolerances are the physics' quantisation steps: one azimuth grid step (140°/187), one
-//! elevation grid step (0.5°), one range bin and one Doppler bin.
+//! Tolerances ([`tolerance`]) are derived per target, in grid units: half a grid step (a grid
+//! estimate of a truth between bins), plus the deterministic biases of these frames, plus
+//! four standard deviations of the estimator's noise:
+//!
+//! - **range**: the truth is taken at the frame start, the estimate averages over the frame,
+//!   so a target moving at `v` is `|v|·T_frame/2` farther on; the noise of a range-FFT peak
+//!   summed over `M·K` = 1,536 chirps at ≥ 19 dB per chirp is below 0.01 bin (single-tone
+//!   Cramér–Rao bound, ×2 for the Blackman main lobe), 0.04 bin as 4σ.
+//! - **azimuth**: the TDM compensation uses the integer Doppler bin, leaving up to half a
+//!   Doppler bin of slot phase, `2π·½·1/(K·TX)` = 0.008 rad between the two halves of the
+//!   azimuth line (slots 0 and 1), a tilt of about 0.001 in μ (0.05°, 0.07 step); the noise
+//!   of an 8-element Capon estimate at these SNRs is below 0.03° (4σ ≈ 0.15 step).
+//! - **elevation**: the same residual between the elevation row (slot 2) and the azimuth
+//!   elements it is compared with (slots 0 and 1, mean 1.5 slots) is up to
+//!   `2π·½·1.5/(K·TX)` = 0.012 rad, i.e. `Δν = 0.012/(κ·Δel)` = 0.0039 (0.22°, 0.45 step);
+//!   the 12-element CRB at 19 dB per chirp and `K` = 128 snapshots is σ_ν ≈ 0.0013 (0.08°,
+//!   4σ = 0.6 step). The targets sit on elevation bin centres, so a grid estimate is off by
+//!   a whole number of steps: bias + noise can exceed the half step and land it exactly one
+//!   step (0.5°) away, which the f32 grid reports as 0.99999987 steps. That is why one
+//!   estimate of `several_targets_in_one_frame_are_all_recovered` sits there: the truth is on
+//!   a bin, the estimate one bin off, within the bound (0.5 + 0.45 + 0.6 ≈ 1.55 steps).
+//! - **Doppler**: this synthesis puts the carrier phase at `f_c` (the spec before its
+//!   amendment to `f_0`), so velocities read `S·N/(2·fs·f_c)` = 0.77 % high, 0.0077·|d| bins;
+//!   the slow-time peak's noise over 12 antennas and 128 loops is below 0.02 bin (4σ 0.08).
 
 mod common;
 
@@ -42,7 +64,7 @@ fn run(targets: &[Target], noise: f64, seed: u64, params: Params) -> Run {
 fn errors(r: &Run, pt: &Point, t: &Target) -> (f64, f64, f64, f64) {
     let (mu, nu) = t.mu_nu();
     let range = common::norm(t.pos);
-    let v = (t.pos[0] * t.vel[0] + t.pos[1] * t.vel[1] + t.pos[2] * t.vel[2]) / range;
+    let v = radial_velocity(t);
     let mu_est = f64::from(r.dbe.azimuth_grid()[usize::from(pt.azimuth_bin)]);
     let nu_est = f64::from(r.dbe.elevation_grid()[usize::from(pt.elevation_bin)]);
     (
@@ -62,12 +84,37 @@ fn nearest<'a>(r: &'a Run, t: &Target) -> Option<&'a Point> {
     })
 }
 
+/// Radial velocity of `t` at the frame start, m/s.
+fn radial_velocity(t: &Target) -> f64 {
+    (t.pos[0] * t.vel[0] + t.pos[1] * t.vel[1] + t.pos[2] * t.vel[2]) / common::norm(t.pos)
+}
+
+/// The largest error (range bins, az steps, el steps, Doppler bins) the physics allows for a
+/// grid estimate of `t` (module docs).
+fn tolerance(t: &Target) -> (f64, f64, f64, f64) {
+    let w = Waveform::COLORADAR;
+    let v = radial_velocity(t);
+    let frame_s = (p::LOOPS * p::TX) as f64 * w.chirp_period_s();
+    let migration = v.abs() * frame_s / 2.0 / w.range_bin_m(p::SAMPLES);
+    let doppler_bins = v.abs() / w.doppler_bin_mps(p::SAMPLES, p::LOOPS, p::TX);
+    let model = w.slope_hz_per_s * (p::SAMPLES as f64 / w.adc_sample_rate_hz)
+        / (2.0 * w.center_frequency_hz(p::SAMPLES));
+    (
+        0.5 + migration + 0.04,
+        0.5 + 0.07 + 0.15,
+        0.5 + 0.45 + 0.6,
+        0.5 + model * doppler_bins + 0.08,
+    )
+}
+
 fn assert_recovered(r: &Run, t: &Target) {
     let pt = nearest(r, t).unwrap_or_else(|| panic!("no points for {t:?}"));
     let e = errors(r, pt, t);
+    let tol = tolerance(t);
     assert!(
-        e.0 <= 1.0 && e.1 <= 1.0 && e.2 <= 1.0 && e.3 <= 1.0,
-        "target {t:?}: errors (range bins, az steps, el steps, Doppler bins) = {e:?}, point {pt:?}"
+        e.0 <= tol.0 && e.1 <= tol.1 && e.2 <= tol.2 && e.3 <= tol.3,
+        "target {t:?}: errors (range bins, az steps, el steps, Doppler bins) = {e:?} over \
+         {tol:?}, point {pt:?}"
     );
 }
 
@@ -159,14 +206,20 @@ fn without_tdm_compensation_a_1_mps_target_gets_its_elevation_wrong() {
     assert_recovered(&r, &t);
 }
 
+/// In noise a Capon range–azimuth cell estimated from `K` snapshots on an `AZ`-element line
+/// is `σ²/AZ` times a Gamma variable of shape `K − AZ + 1` = 121 (unit mean, spread
+/// 1/√121 = 9 %; forward–backward averaging only narrows it). A false detection needs a cell
+/// above α = 8 dB (6.3×) its neighbours' 75 % order statistic (≈ 1.06), i.e. 5.7 times its
+/// mean: the Gamma(121) tail there is below 10⁻¹⁵⁰, against 20,520 cells per frame. The
+/// expected number of false points is zero to any precision, so zero is asserted.
 #[test]
-fn noise_only_frames_give_few_points() {
+fn noise_only_frames_give_no_points() {
     for seed in 40..44 {
         let r = run(&[], 20.0, seed, Params::defaults(p::SAMPLES));
-        assert!(
-            r.cloud.points().len() <= 2,
-            "{} false points: {:?}",
+        assert_eq!(
             r.cloud.points().len(),
+            0,
+            "false points: {:?}",
             r.cloud.stats
         );
         assert_eq!(r.cloud.stats.skipped_range_bins, 0);

@@ -92,13 +92,28 @@ fn without_tdm_compensation_the_moving_sensor_loses_elevation_accuracy() -> Test
     Ok(())
 }
 
+/// The coherent-pair limitation (README "Known limitations", issue 10 §2), pinned so that it
+/// cannot change unnoticed. `two_targets` puts two equal static reflectors in one range bin:
+/// seen by a static sensor their snapshots are identical up to noise, and seen by a sensor
+/// moving straight ahead they share one radial velocity, so in both cases they are coherent.
+/// Forward–backward averaging keeps them apart in azimuth (the azimuth RMSE of the matched
+/// points stays within the static goal), but the 12-element elevation Capon has no such
+/// averaging and cancels them: about a third of the targets get a point within 0.6 m. When
+/// the chain learns to resolve coherent pairs this test fails: replace it by the ≥ 90 % goal.
 #[test]
-#[ignore = "diagnostic: the coherent-pair limitation, printed"]
-fn coherent_pair_scene() -> TestResult {
-    run(&scene("two_targets")?, Params::defaults(128))?;
+fn coherent_pairs_lose_elevation_as_documented() -> TestResult {
     let mut moving = scene("two_targets")?;
     moving.sensor.velocity = Some([1.2, 0.0, 0.0]);
     moving.name = "two_targets, moving".into();
-    run(&moving, Params::defaults(128))?;
+    for s in [scene("two_targets")?, moving] {
+        let a = run(&s, Params::defaults(128))?;
+        assert!(a.points_per_frame >= 2.0, "{}: both detected {a:?}", s.name);
+        assert!(a.azimuth_rmse_deg <= 0.5, "{}: azimuth {a:?}", s.name);
+        assert!(
+            a.detection_rate() < 0.5,
+            "{}: the coherent pair is resolved now ({a:?}); make the goal the test",
+            s.name
+        );
+    }
     Ok(())
 }
