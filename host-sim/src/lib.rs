@@ -4,7 +4,6 @@
 pub mod cloud;
 pub mod core_run;
 pub mod eval;
-pub mod firmware;
 pub mod frame;
 pub mod harness;
 pub mod io;

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{decode_dca1000, derived, fixture, synth_frame, Target};
+use common::{derived, fixture, synth_frame, Target};
 use dbe_radar::Params;
 use host_sim::cloud::PointRecord;
 use host_sim::core_run::{CoreOutput, CoreRunner, Preset};
@@ -319,18 +319,15 @@ fn coupling_table_cancels_a_static_return_in_core_and_reference() -> TestResult 
 
 #[test]
 fn ti_iwr6843_capture_agrees_and_finds_the_corner_reflector() -> TestResult {
-    let Some(bytes) = fixture("ti-iwr6843-corner-reflector/adc_data_Raw_0.bin") else {
+    let relative = "ti-iwr6843-corner-reflector/adc_data_Raw_0.bin";
+    if fixture(relative).is_none() {
         return Ok(());
-    };
+    }
     let sensor = SensorConfig::iwr6843_fixture();
-    let frame = decode_dca1000(
-        &bytes,
-        sensor.samples,
-        sensor.loops,
-        sensor.num_tx,
-        sensor.num_rx,
-    )
-    .ok_or("adc_data_Raw_0.bin: expected 786,432 bytes (256 × 64 × 3 × 4 × 4)")?;
+    let path = common::shared_dir().join("fixtures").join(relative);
+    let mut frames = host_sim::io::read_dca1000(&path, &sensor)?;
+    let frame = frames.pop().ok_or("adc_data_Raw_0.bin: no frame")?;
+    assert!(frames.is_empty(), "adc_data_Raw_0.bin holds one frame");
     let params = Params::defaults(sensor.samples);
     let mut validator = Validator::new(&sensor, params)?;
     assert_eq!(validator.preset(), Preset::Iwr6843);

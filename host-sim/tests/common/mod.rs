@@ -162,35 +162,3 @@ pub fn fixture(relative: &str) -> Option<Vec<u8>> {
         }
     }
 }
-
-/// Decode a DCA1000 2-lane capture of one frame: int16 LE, every 4 words
-/// `I(n) I(n+1) Q(n) Q(n+1)` of one RX, order loop → TX → RX → sample (the fixture README).
-/// `None` when the byte count does not match the sizes.
-pub fn decode_dca1000(
-    bytes: &[u8],
-    samples: usize,
-    loops: usize,
-    tx: usize,
-    rx: usize,
-) -> Option<AdcFrame> {
-    if bytes.len() != samples * loops * tx * rx * 4 || samples % 2 != 0 {
-        return None;
-    }
-    let words: Vec<i16> = bytes
-        .chunks_exact(2)
-        .map(|b| i16::from_le_bytes([b[0], b[1]]))
-        .collect();
-    let mut frame = AdcFrame::zeros(samples, loops, tx, rx);
-    // One RX's chirp is 2·samples words; the frame's flat index runs in the same order.
-    for (chirp_out, chirp_in) in frame
-        .data
-        .chunks_exact_mut(samples)
-        .zip(words.chunks_exact(2 * samples))
-    {
-        for (pair_out, quad) in chirp_out.chunks_exact_mut(2).zip(chirp_in.chunks_exact(4)) {
-            pair_out[0] = [quad[0], quad[2]];
-            pair_out[1] = [quad[1], quad[3]];
-        }
-    }
-    Some(frame)
-}

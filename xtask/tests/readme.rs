@@ -1,7 +1,7 @@
 //! README's figures come from the files the measuring commands write: a change of the budget
 //! (`firmware/budget.sh` → `docs/budget.json`) fails here until README is updated with it.
 
-use host_sim::firmware::{self, thousands, Layout};
+use xtask::{self as firmware, thousands, Layout};
 
 fn readme() -> String {
     let path = Layout::this_repo()

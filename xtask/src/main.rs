@@ -1,0 +1,133 @@
+//! `cargo xtask`: the firmware's build, run and budget commands (alias in `.cargo/config.toml`).
+//!
+//! ```sh
+//! cargo xtask budget                 # build, run every image under QEMU, write the budget
+//! cargo xtask budget --check         # exit 1 when docs/budget.json or memory-layout.md is stale
+//! cargo xtask budget --render        # re-render the block of memory-layout.md from the JSON
+//! cargo xtask firmware coloradar     # build and run one image, print its output lines
+//! cargo xtask firmware iwr6843 --board an500
+//! cargo xtask frames                 # write the frames the images embed (firmware/target/frames)
+//! ```
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use xtask::{Board, FirmwareError, Image, Layout};
+
+/// Build, run and measure the dbe-radar firmware.
+#[derive(Parser)]
+#[command(name = "cargo xtask")]
+struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Measure every image on QEMU and write (or check) docs/budget.json and memory-layout.md.
+    Budget {
+        /// Compare instead of writing; exit 1 when anything is stale.
+        #[arg(long)]
+        check: bool,
+        /// No measurement: only the Markdown block from docs/budget.json.
+        #[arg(long)]
+        render: bool,
+    },
+    /// Build the firmware and run one image under QEMU, printing its output lines.
+    Firmware {
+        /// The image: coloradar, iwr6843 (DBE chain), coloradar-fft, iwr6843-fft.
+        #[arg(default_value = "coloradar")]
+        image: String,
+        /// The board: an386 (Cortex-M4F, the budget's) or an500 (Cortex-M7).
+        #[arg(long, default_value = "an386")]
+        board: String,
+    },
+    /// Write the frames the images embed into firmware/target/frames (read by its build.rs).
+    Frames,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    match run(args.command) {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("xtask: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(command: Command) -> Result<bool, FirmwareError> {
+    let layout = Layout::this_repo();
+    match command {
+        Command::Budget { check, render } => budget(&layout, check, render),
+        Command::Firmware { image, board } => {
+            let image = Image::ALL
+                .into_iter()
+                .find(|i| i.name() == image)
+                .ok_or_else(|| usage(format!("unknown image `{image}` ({})", image_names())))?;
+            let board = match board.as_str() {
+                "an386" => Board::An386,
+                "an500" => Board::An500,
+                other => return Err(usage(format!("unknown board `{other}` (an386, an500)"))),
+            };
+            xtask::check_tools()?;
+            xtask::build(&layout)?;
+            print!("{}", xtask::run(&layout, image, board)?);
+            Ok(true)
+        }
+        Command::Frames => {
+            xtask::write_frames(&layout)?;
+            println!("{}", layout.frames_dir().display());
+            Ok(true)
+        }
+    }
+}
+
+fn image_names() -> String {
+    Image::ALL.map(|i| i.name()).join(", ")
+}
+
+fn usage(message: String) -> FirmwareError {
+    FirmwareError::Usage(message)
+}
+
+fn budget(layout: &Layout, check: bool, render: bool) -> Result<bool, FirmwareError> {
+    let measured = if render {
+        None
+    } else {
+        let (budget, _, _) = xtask::measure(layout)?;
+        for p in &budget.presets {
+            println!(
+                "{:>13}: static RAM {} B, stack peak {} B, flash {} B, {} instructions/frame",
+                p.preset,
+                xtask::thousands(p.static_ram_bytes),
+                xtask::thousands(p.stack_peak_bytes),
+                xtask::thousands(p.flash_bytes),
+                xtask::thousands(p.instructions_per_frame)
+            );
+        }
+        Some(budget)
+    };
+    if check {
+        let problems = xtask::stale(layout, measured.as_ref())?;
+        if problems.is_empty() {
+            println!("budget: docs/budget.json and memory-layout.md are up to date");
+            return Ok(true);
+        }
+        for p in &problems {
+            eprintln!("stale: {p}");
+        }
+        eprintln!("run `{}` and commit the result", xtask::UPDATE_COMMAND);
+        return Ok(false);
+    }
+    let budget = match measured {
+        Some(b) => b,
+        None => xtask::read_budget(&layout.budget_json())?,
+    };
+    for path in xtask::write_budget(layout, &budget)? {
+        println!("wrote {}", path.display());
+    }
+    Ok(true)
+}
