@@ -32,13 +32,15 @@ pub struct DemoArgs {
     pub params: ParamArgs,
 }
 
-/// Score `results` against the ground truth of `frames`.
-fn accuracy(frames: &[SimFrame], results: &[FrameResult]) -> Accuracy {
+/// Score `results` against the ground truth of `frames` (the crate's one matching rule,
+/// [`score`]).
+fn accuracy(sensor: &SensorConfig, frames: &[SimFrame], results: &[FrameResult]) -> Accuracy {
     score::accuracy(
         frames
             .iter()
             .zip(results.iter())
             .map(|(f, r)| (&f.truth, r.points.as_slice())),
+        score::mid_frame_s(sensor),
     )
 }
 
@@ -103,7 +105,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let agree = super::validate::print(&reports);
 
     println!("4. accuracy against ground truth (point targets; {MATCH_RADIUS_M} m match radius)");
-    let acc = accuracy(&frames, &results);
+    let acc = accuracy(&sensor, &frames, &results);
     println!(
         "   detected {}/{} targets ({:.1} %), azimuth RMSE {:.2}°, elevation RMSE {:.2}°, Doppler RMSE {:.3} m/s",
         acc.detected,

@@ -24,8 +24,8 @@ use crate::sim::truth::look;
 use crate::sim::{try_render_frame, ObjectKind, Scatterer, Scene, Simulation};
 
 /// A point within this distance (m) of a point target detects it; a point farther than this
-/// from every truth point (target or surface sample) is a false point. The `dbe demo` radius.
-pub const MATCH_RADIUS_M: f64 = 0.6;
+/// from every truth point (target or surface sample) is a false point ([`crate::score`]).
+pub use crate::score::MATCH_RADIUS_M;
 /// Range tolerance of the resolution test, range bins.
 pub const RESOLUTION_RANGE_BINS: f64 = 2.0;
 
@@ -54,10 +54,10 @@ impl Context {
         let w = Waveform::COLORADAR;
         let array = SnapshotModel::coloradar()?;
         let t_loop = w.loop_period_s(p::TX);
-        let t_mid_s =
-            0.5 * ((p::LOOPS - 1) as f64 * t_loop + (p::TX - 1) as f64 * w.chirp_period_s());
+        let sensor = SensorConfig::coloradar();
+        let t_mid_s = crate::score::mid_frame_s(&sensor);
         Ok(Self {
-            sensor: SensorConfig::coloradar(),
+            sensor,
             snr: SnrModel::coloradar(noise_std),
             line: array.first(p::AZIMUTH),
             array,
@@ -147,17 +147,7 @@ pub fn point_angles(pt: &PointRecord) -> (f64, f64, f64) {
     (r, phi.to_degrees(), nu.clamp(-1.0, 1.0).asin().to_degrees())
 }
 
-fn distance(pt: &PointRecord, q: &P3) -> f64 {
-    ((pt.x - q[0]).powi(2) + (pt.y - q[1]).powi(2) + (pt.z - q[2]).powi(2)).sqrt()
-}
-
-/// The strongest point (largest `intensity_db`) within [`MATCH_RADIUS_M`] of `at`.
-pub fn matched_point<'a>(points: &'a [PointRecord], at: &P3) -> Option<&'a PointRecord> {
-    points
-        .iter()
-        .filter(|pt| distance(pt, at) <= MATCH_RADIUS_M)
-        .max_by(|a, b| a.intensity_db.total_cmp(&b.intensity_db))
-}
+pub use crate::score::matched_point;
 
 /// Errors of `pt` against a truth at `range_m`, `azimuth_deg`, `elevation_deg`, moving
 /// radially at `radial_mps`.
