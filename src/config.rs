@@ -381,6 +381,24 @@ pub(crate) fn span(a: f32, b: f32, limit: f32, p: Param) -> Result<(), ConfigErr
     }
 }
 
+/// Check what both chains' parameters share: the processed range bins `first..=last` inside
+/// `samples` bins, and the azimuth and elevation grid spans.
+pub(crate) fn validate_bins_and_spans(
+    first: u16,
+    last: u16,
+    samples: usize,
+    azimuth_span_deg: (f32, f32),
+    elevation_span_deg: (f32, f32),
+) -> Result<(), ConfigError> {
+    if first > last || usize::from(last) >= samples {
+        return Err(ConfigError::OutOfRange(Param::RangeWindow));
+    }
+    let (a0, a1) = azimuth_span_deg;
+    span(a0, a1, SPAN_LIMIT_DEG, Param::AzimuthSpan)?;
+    let (e0, e1) = elevation_span_deg;
+    span(e0, e1, SPAN_LIMIT_DEG, Param::ElevationSpan)
+}
+
 /// Largest angle magnitude of a grid span, degrees.
 pub(crate) const SPAN_LIMIT_DEG: f32 = 89.9;
 

@@ -20,7 +20,7 @@ use crate::capon::Capon;
 use crate::cfar::{self, CfarParams, Columns, Detection, Detections, MapShape, MAX_TRAINING_CELLS};
 use crate::chain::Chain;
 use crate::config::{
-    finite, sine_at, sine_grid, span, ArrayLayout, ConfigError, Param, SPAN_LIMIT_DEG,
+    finite, sine_at, sine_grid, validate_bins_and_spans, ArrayLayout, ConfigError, Param,
 };
 use crate::covariance::{
     covariance, forward_backward, leading_block, load_diagonal, rotate_rows, zero, Matrix,
@@ -125,17 +125,17 @@ impl Params {
     }
 
     fn validate(&self, samples: usize, az_bins: usize, nel: usize) -> Result<(), ConfigError> {
-        if self.range_first > self.range_last || usize::from(self.range_last) >= samples {
-            return Err(ConfigError::OutOfRange(Param::RangeWindow));
-        }
+        validate_bins_and_spans(
+            self.range_first,
+            self.range_last,
+            samples,
+            self.azimuth_span_deg,
+            self.elevation_span_deg,
+        )?;
         finite(f64::from(self.loading), Param::Loading)?;
         if !(self.loading > 0.0) {
             return Err(ConfigError::OutOfRange(Param::Loading));
         }
-        let (a0, a1) = self.azimuth_span_deg;
-        span(a0, a1, SPAN_LIMIT_DEG, Param::AzimuthSpan)?;
-        let (e0, e1) = self.elevation_span_deg;
-        span(e0, e1, SPAN_LIMIT_DEG, Param::ElevationSpan)?;
         if az_bins < 3 || nel < 3 {
             return Err(ConfigError::OutOfRange(Param::GridSize));
         }

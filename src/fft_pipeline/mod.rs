@@ -89,7 +89,7 @@ use num_complex::Complex32;
 
 use crate::cfar::{self, CfarParams, Columns, Detection, Detections, MapShape, MAX_TRAINING_CELLS};
 use crate::chain::Chain;
-use crate::config::{sine_at, sine_grid, span, ArrayLayout, ConfigError, Param, SPAN_LIMIT_DEG};
+use crate::config::{sine_at, sine_grid, validate_bins_and_spans, ArrayLayout, ConfigError, Param};
 use crate::cube::{Frame, Snapshots};
 use crate::doppler::signed_bin;
 use crate::elevation;
@@ -167,13 +167,13 @@ impl FftParams {
     };
 
     fn validate(&self, samples: usize, loops: usize, nel: usize) -> Result<(), ConfigError> {
-        if self.range_first > self.range_last || usize::from(self.range_last) >= samples {
-            return Err(ConfigError::OutOfRange(Param::RangeWindow));
-        }
-        let (a0, a1) = self.azimuth_span_deg;
-        span(a0, a1, SPAN_LIMIT_DEG, Param::AzimuthSpan)?;
-        let (e0, e1) = self.elevation_span_deg;
-        span(e0, e1, SPAN_LIMIT_DEG, Param::ElevationSpan)?;
+        validate_bins_and_spans(
+            self.range_first,
+            self.range_last,
+            samples,
+            self.azimuth_span_deg,
+            self.elevation_span_deg,
+        )?;
         if nel < 3 {
             return Err(ConfigError::OutOfRange(Param::GridSize));
         }
