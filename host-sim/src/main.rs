@@ -29,6 +29,8 @@ enum Command {
     /// Compare the DBE and FFT chains with each other and the Cramér–Rao bound on simulated
     /// scenes; write a report (Markdown, CSV, PNG, JSON).
     Eval(cli::eval::EvalArgs),
+    /// Time every stage of both chains on simulated ColoRadar frames (one thread).
+    Bench(cli::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -40,6 +42,7 @@ fn main() -> ExitCode {
         Command::Plot(a) => cli::plot::run(a),
         Command::Demo(a) => cli::demo::run(a),
         Command::Eval(a) => cli::eval::run(a),
+        Command::Bench(a) => cli::bench::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,5 +1,6 @@
 //! The `dbe` subcommands.
 
+pub mod bench;
 pub mod demo;
 pub mod eval;
 pub mod input;
