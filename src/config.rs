@@ -272,6 +272,8 @@ pub enum Param {
     Coupling,
     /// A grid size (azimuth or elevation bins) too small for peak finding.
     GridSize,
+    /// `EgoParams` (gates, thresholds, RANSAC probabilities).
+    EgoVelocity,
 }
 
 impl Param {
@@ -297,6 +299,7 @@ impl Param {
             Param::ElevationPeakRange => "elevation peak rules",
             Param::Coupling => "coupling calibration",
             Param::GridSize => "angle grid size",
+            Param::EgoVelocity => "ego-velocity parameters",
         }
     }
 }

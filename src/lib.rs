@@ -8,7 +8,8 @@
 //! range FFT ([`range`], in the [`frontend`]) → Capon azimuth beamforming ([`capon`]) →
 //! OS-CFAR on the range–azimuth map ([`cfar`]) → TDM-MIMO motion compensation ([`tdm`]) →
 //! Capon elevation sweep ([`elevation`]) → Doppler FFT of the Capon-beamformed slow time
-//! ([`doppler`]) → points ([`points`]). [`pipeline`] shows the data flow on one screen;
+//! ([`doppler`]) → points ([`points`]) → the radar's own velocity ([`ego`], the odometry
+//! input). [`pipeline`] shows the data flow on one screen;
 //! [`fft_pipeline`] is the classic FFT chain it is compared against. Both are a [`Chain`].
 //!
 //! Shapes are const generics (see [`presets`]); waveform, geometry and thresholds are
@@ -52,6 +53,7 @@ pub mod config;
 pub mod covariance;
 pub mod cube;
 pub mod doppler;
+pub mod ego;
 pub mod elevation;
 pub mod fft;
 pub mod fft_pipeline;
@@ -68,9 +70,11 @@ pub use cfar::{CfarKind, CfarParams, Detection};
 pub use chain::Chain;
 pub use config::{AntennaGeometry, ConfigError, Waveform};
 pub use cube::{ChirpId, Cube, Frame, FrameError};
+pub use ego::{EgoEstimator, EgoParams, EgoStatus, EgoVelocity};
 pub use elevation::ElevationParams;
 pub use fft_pipeline::{FftChain, FftParams, FftWorkspace};
 pub use frontend::Frontend;
+pub use glam::Vec3;
 pub use num_complex::Complex32;
 pub use pipeline::{Dbe, Params, Workspace};
 pub use points::{FrameStats, Point, PointCloud};

@@ -155,3 +155,47 @@ fn readme_quotes_the_demo() -> TestResult {
     }
     Ok(())
 }
+
+/// The ego-velocity stage on the DBE chain's points of a moving-sensor scene with a car
+/// driving the other way (an outlier): every estimate that reports `ok` lies within 4σ of
+/// its reported covariance of the sensor's true velocity, and the car never pulls it.
+#[test]
+fn ego_velocity_from_the_points_of_a_moving_sensor() -> TestResult {
+    use dbe_radar::{EgoEstimator, EgoParams, EgoStatus, Point};
+    let scene = scene("parking_lot")?;
+    let truth = scene
+        .sensor
+        .velocity
+        .ok_or("parking_lot has a moving sensor")?;
+    let sensor = SensorConfig::coloradar();
+    let sim = Simulation::new(&scene, &sensor)?;
+    let mut runner = CoreRunner::new(&sensor, Params::defaults(128))?;
+    let mut ego = Box::new(EgoEstimator::<256>::new(EgoParams::DEFAULT)?);
+    let mut ok = 0;
+    for i in 0..FRAMES {
+        let out = runner.process(&sim.frame(i)?.adc)?;
+        let points: Vec<Point> = out
+            .points
+            .iter()
+            .map(|p| Point {
+                position: dbe_radar::Vec3::new(p.x as f32, p.y as f32, p.z as f32),
+                velocity_mps: p.doppler as f32,
+                snr_db: p.snr_db as f32,
+                ..Point::default()
+            })
+            .collect();
+        let e = ego.estimate(&points);
+        println!("frame {i}: {e:?}");
+        if e.status != EgoStatus::Ok {
+            continue;
+        }
+        ok += 1;
+        for k in 0..3 {
+            let err = f64::from(e.velocity[k]) - truth[k];
+            let sigma = f64::from(e.covariance[k][k]).sqrt();
+            assert!(err.abs() <= 4.0 * sigma, "frame {i} axis {k}: {e:?}");
+        }
+    }
+    assert!(ok >= FRAMES / 2, "{ok} of {FRAMES} frames with an estimate");
+    Ok(())
+}
