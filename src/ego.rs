@@ -134,6 +134,24 @@ impl EgoParams {
     }
 }
 
+impl EgoParams {
+    /// Every field zero (an unconfigured estimator).
+    const ZEROED: Self = Self {
+        min_range_m: 0.0,
+        max_range_m: 0.0,
+        max_azimuth_deg: 0.0,
+        max_elevation_deg: 0.0,
+        min_snr_db: 0.0,
+        standstill_mps: 0.0,
+        inlier_mps: 0.0,
+        outlier_ratio: 0.0,
+        success_probability: 0.0,
+        min_inliers: 0,
+        sigma_floor_mps: 0.0,
+        seed: 0,
+    };
+}
+
 impl Default for EgoParams {
     fn default() -> Self {
         Self::DEFAULT
@@ -217,6 +235,28 @@ impl<const P: usize> EgoEstimator<P> {
         })
     }
 
+    /// An estimator whose every byte is zero, `const`, so that a `static` of it lands in
+    /// `.bss` on firmware; [`Self::configure`] it before use. Unconfigured, it reports
+    /// `too_few_points` for every frame.
+    pub const fn unconfigured() -> Self {
+        Self {
+            params: EgoParams::ZEROED,
+            iterations: 0,
+            rows: [Vec3::ZERO; P],
+            y: [0.0; P],
+            inlier: [false; P],
+            scratch: [0.0; P],
+        }
+    }
+
+    /// Validate and set the parameters in place. On error `self` is unchanged.
+    pub fn configure(&mut self, params: EgoParams) -> Result<(), ConfigError> {
+        params.validate()?;
+        self.params = params;
+        self.iterations = params.iterations();
+        Ok(())
+    }
+
     /// The parameters.
     pub fn params(&self) -> &EgoParams {
         &self.params
@@ -236,7 +276,8 @@ impl<const P: usize> EgoEstimator<P> {
             points: n as u16,
             ..EgoVelocity::default()
         };
-        let min = usize::from(self.params.min_inliers);
+        // At least 3 points whatever the parameters (an unconfigured estimator has 0).
+        let min = usize::from(self.params.min_inliers).max(3);
         if n < min {
             return out;
         }

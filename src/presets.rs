@@ -103,6 +103,8 @@ macro_rules! preset {
             pub type FftWorkspace = $crate::FftWorkspace<SAMPLES, LOOPS, VIRTUAL, DETECTIONS>;
             /// Output.
             pub type PointCloud = $crate::PointCloud<POINTS>;
+            /// The ego-velocity stage, room for one gated point per detection.
+            pub type EgoEstimator = $crate::EgoEstimator<DETECTIONS>;
             /// One chirp of all RX as the ADC delivers it: `[rx][sample][I, Q]`.
             pub type Chirp = [[[i16; 2]; SAMPLES]; RX];
 

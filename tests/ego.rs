@@ -157,3 +157,20 @@ fn the_estimate_is_deterministic_and_the_iteration_count_follows_the_formula() {
     };
     assert!(EgoEstimator::<8>::new(bad).is_err());
 }
+
+#[test]
+fn an_unconfigured_estimator_estimates_nothing_and_configures_in_place() {
+    let mut rng = rand::rngs::StdRng::seed_from_u64(6);
+    let v = Vec3::new(1.0, 0.0, 0.0);
+    let pts: Vec<Point> = (0..20).map(|_| point(&mut rng, v, 0.0, 0.0)).collect();
+    let mut e = Box::new(EgoEstimator::<64>::unconfigured());
+    assert_eq!(e.estimate(&pts).status, EgoStatus::TooFewPoints);
+    assert!(e.estimate(&[]).velocity == Vec3::ZERO);
+    let bad = EgoParams {
+        min_inliers: 2,
+        ..EgoParams::DEFAULT
+    };
+    assert!(e.configure(bad).is_err());
+    e.configure(EgoParams::DEFAULT).unwrap();
+    assert_eq!(e.estimate(&pts).status, EgoStatus::Ok);
+}

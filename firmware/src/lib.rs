@@ -26,6 +26,7 @@
 //! D <range_bin> <column> <power> <level>         one CFAR detection (linear; column: azimuth
 //!                                                bin for dbe, natural Doppler bin for fft)
 //! P <range_bin> <az_bin> <el_bin> <doppler_bin> <x> <y> <z> <v> <power_db> <snr_db>
+//! V <vx> <vy> <vz> <inliers> <points> <status>   the radar's velocity from the points (ego.rs)
 //! F <detections> <detection_overflow> <points> <point_overflow> <skipped_range_bins> <detections_without_point>
 //! S <stage> <instructions> <ticks>               one stage's cost
 //! M <what> <bytes>                               stack_setup, stack_frame
@@ -48,8 +49,9 @@
 //! | `Chain::STAGES[1]` (`cfar` / `rd_cfar`) | `Chain::detect` |
 //! | `Chain::STAGES[2]` (`elevation_doppler` / `angles`) | `Chain::points` |
 //! | `process` | the sum of the three stages |
+//! | `ego_velocity` | `EgoEstimator::estimate` on the frame's points (after `process`, not in `total`) |
 //! | `total` | `ingest` + `process`: one frame |
-//! | `setup` | `Frontend::configure` + `Chain::configure` (once, not per frame) |
+//! | `setup` | `Frontend::configure` + `Chain::configure` + `EgoEstimator::configure` (once, not per frame) |
 #![no_std]
 #![deny(unsafe_code)]
 
@@ -61,7 +63,8 @@ use core::fmt;
 
 use dbe_radar::cube::CubeStorage;
 use dbe_radar::{
-    AntennaGeometry, Chain, ChirpId, ConfigError, Cube, FrameError, Frontend, PointCloud, Waveform,
+    AntennaGeometry, Chain, ChirpId, ConfigError, Cube, EgoEstimator, EgoParams, FrameError,
+    Frontend, PointCloud, Waveform,
 };
 
 use console::Console;
@@ -107,6 +110,7 @@ macro_rules! image {
                 { p::AZIMUTH },
             >>::Workspace>::new();
             static mut CLOUD: p::PointCloud = p::PointCloud::new();
+            static mut EGO: p::EgoEstimator = p::EgoEstimator::unconfigured();
 
             let mut con = $crate::console::Console::open();
             let preset = $crate::Preset {
@@ -124,6 +128,7 @@ macro_rules! image {
                 dma: DMA_CHIRP,
                 work: WORKSPACE,
                 cloud: CLOUD,
+                ego: EGO,
             };
             match $crate::run(&mut con, &preset, p::$params(), buffers) {
                 Ok(()) => debug::exit(debug::EXIT_SUCCESS),
@@ -165,6 +170,7 @@ pub struct Buffers<
     const M: usize,
     const AZ: usize,
     const P: usize,
+    const E: usize,
     C: Chain<N, K, TX, RX, M, AZ>,
 > {
     /// The frontend, unconfigured (all-zero bytes, so in `.bss`), configured at run time.
@@ -179,6 +185,8 @@ pub struct Buffers<
     pub work: &'a mut C::Workspace,
     /// Output points.
     pub cloud: &'a mut PointCloud<P>,
+    /// The ego-velocity stage (unconfigured, configured at run time).
+    pub ego: &'a mut EgoEstimator<E>,
 }
 
 /// Why a run failed.
@@ -341,12 +349,13 @@ pub fn run<
     const M: usize,
     const AZ: usize,
     const P: usize,
+    const E: usize,
     C: Chain<N, K, TX, RX, M, AZ>,
 >(
     con: &mut Console,
     preset: &Preset<TX, RX>,
     params: C::Params,
-    b: Buffers<'_, N, K, TX, RX, M, AZ, P, C>,
+    b: Buffers<'_, N, K, TX, RX, M, AZ, P, E, C>,
 ) -> Result<(), Failure>
 where
     C::Params: RangeWindow,
@@ -367,7 +376,10 @@ where
 
     // Setup, then one frame on a freshly painted stack, each stage timed on its own.
     let window = params.range_window();
-    let (t_setup, r) = clock::time(|| configure(b.frontend, b.chain, preset, params, window));
+    let (t_setup, r) = clock::time(|| {
+        configure(b.frontend, b.chain, preset, params, window)?;
+        b.ego.configure(EgoParams::DEFAULT)
+    });
     r?;
     let (frontend, chain) = (&*b.frontend, &*b.chain);
     let stack_setup = stack::peak_bytes();
@@ -380,6 +392,7 @@ where
     let (t_map, ()) = clock::time(|| chain.map(&frame, b.work));
     let (t_detect, ()) = clock::time(|| chain.detect(b.work));
     let (t_points, ()) = clock::time(|| chain.points(&frame, b.work, b.cloud));
+    let (t_ego, ego) = clock::time(|| b.ego.estimate(b.cloud.points()));
     let stack_frame = stack::peak_bytes();
 
     say!(
@@ -417,6 +430,16 @@ where
             p.snr_db
         );
     }
+    say!(
+        con,
+        "V {} {} {} {} {} {}",
+        ego.velocity.x,
+        ego.velocity.y,
+        ego.velocity.z,
+        ego.inliers,
+        ego.points,
+        ego.status
+    );
     let s = &b.cloud.stats;
     say!(
         con,
@@ -437,7 +460,7 @@ where
     );
     let process = u64::from(t_map) + u64::from(t_detect) + u64::from(t_points);
     let [map, detect, points] = C::STAGES;
-    let stages: [(&str, (u64, u64)); 10] = [
+    let stages: [(&str, (u64, u64)); 11] = [
         ("setup", i(t_setup)),
         ("range_fft_per_chirp", per_chirp),
         ("range_fft_chirp_min", i(ingest.chirp_min)),
@@ -447,6 +470,7 @@ where
         (detect, i(t_detect)),
         (points, i(t_points)),
         ("process", (cal.instructions(process), process)),
+        ("ego_velocity", i(t_ego)),
         (
             "total",
             (

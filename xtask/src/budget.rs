@@ -218,6 +218,10 @@ const DBE_STAGES: StageRows = (
             "TDM compensation + elevation + Doppler (stages 3–5)",
         ),
         ("process", "`process` (stages 1–5)"),
+        (
+            "ego_velocity",
+            "ego-velocity from the points (`EgoEstimator`, not in the frame)",
+        ),
         ("total", "**per frame** (ingest + process)"),
         (
             "setup",
@@ -250,6 +254,10 @@ const FFT_STAGES: StageRows = (
             "Doppler bin + TDM compensation + beamscan + elevation (stage 3)",
         ),
         ("process", "`process` (stages 1–3)"),
+        (
+            "ego_velocity",
+            "ego-velocity from the points (`EgoEstimator`, not in the frame)",
+        ),
         ("total", "**per frame** (ingest + process)"),
         (
             "setup",

@@ -51,7 +51,7 @@ impl ElfMemory {
 }
 
 /// The statics every image names (`firmware/src/lib.rs`, `image!`), and what they hold.
-const STATICS: [(&str, &str); 6] = [
+const STATICS: [(&str, &str); 7] = [
     ("CUBE", "radar cube (`CubeStorage`)"),
     (
         "WORKSPACE",
@@ -67,6 +67,10 @@ const STATICS: [(&str, &str); 6] = [
     ),
     ("CLOUD", "`PointCloud`"),
     ("DMA_CHIRP", "one-chirp DMA buffer"),
+    (
+        "EGO",
+        "`EgoEstimator`: gated directions and velocities of the ego-velocity stage",
+    ),
 ];
 
 /// The statics an image names, and what they hold (the same for both chains).

@@ -15,6 +15,19 @@ use crate::*;
 /// Doppler FFT bin (FFT chain).
 pub type FwDetection = dbe_radar::Detection;
 
+/// The ego-velocity estimate as the firmware printed it (`V` line).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FwEgo {
+    /// Velocity of the radar, m/s, radar frame.
+    pub velocity: [f32; 3],
+    /// Inliers of the final fit.
+    pub inliers: u16,
+    /// Points that passed the gate.
+    pub points: u16,
+    /// `ok`, `standstill`, `too_few_points` or `ill_conditioned`.
+    pub status: String,
+}
+
 /// Everything one firmware run printed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FirmwareRun {
@@ -31,6 +44,8 @@ pub struct FirmwareRun {
     pub detections: Vec<FwDetection>,
     /// Points (`P` lines), `f32` values widened exactly to `f64`.
     pub points: Vec<PointRecord>,
+    /// The ego-velocity stage's estimate (`V` line).
+    pub ego: Option<FwEgo>,
     /// Frame statistics.
     pub stats: FrameStats,
     /// Instructions per stage (DBE: `range_fft_per_chirp`, `ingest`, `azimuth_capon`, `cfar`,
@@ -90,6 +105,7 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
         sizes: (0, 0, 0, 0),
         instructions_per_tick: 0,
         detections: Vec::new(),
+        ego: None,
         points: Vec::new(),
         stats: FrameStats::default(),
         stages: BTreeMap::new(),
@@ -165,6 +181,14 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
                 level: f(4, "level")?,
             }),
             Some("P") => run.points.push(parse_point(&t, line)?),
+            Some("V") => {
+                run.ego = Some(FwEgo {
+                    velocity: [f(1, "vx")?, f(2, "vy")?, f(3, "vz")?],
+                    inliers: field(&t, 4, line, "inliers")?,
+                    points: field(&t, 5, line, "ego points")?,
+                    status: field(&t, 6, line, "ego status")?,
+                });
+            }
             Some("F") => {
                 run.stats = FrameStats {
                     detections: field(&t, 1, line, "detections")?,

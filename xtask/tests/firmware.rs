@@ -240,6 +240,35 @@ fn firmware_output_equals_the_host_core_on_the_same_frame() {
         let host = host_core(&sensor, &frame);
         assert_eq!(fw.stats, host.stats, "{preset}: frame statistics");
         assert_eq!(fw.detections.len(), host.detections.len(), "{preset}");
+        // The ego-velocity stage on the host's points gives the firmware's verdict.
+        let points: Vec<dbe_radar::Point> = host
+            .points
+            .iter()
+            .map(|p| dbe_radar::Point {
+                position: dbe_radar::Vec3::new(p.x as f32, p.y as f32, p.z as f32),
+                velocity_mps: p.doppler as f32,
+                snr_db: p.snr_db as f32,
+                ..dbe_radar::Point::default()
+            })
+            .collect();
+        let mut ego = Box::new(dbe_radar::EgoEstimator::<128>::unconfigured());
+        ego.configure(dbe_radar::EgoParams::DEFAULT)
+            .expect("valid defaults");
+        let host_ego = ego.estimate(&points);
+        let fw_ego = fw
+            .ego
+            .as_ref()
+            .expect("the firmware prints its ego-velocity");
+        assert_eq!(
+            fw_ego.status,
+            host_ego.status.name(),
+            "{preset}: ego status"
+        );
+        assert_eq!(
+            (fw_ego.inliers, fw_ego.points),
+            (host_ego.inliers, host_ego.points),
+            "{preset}: ego counts"
+        );
         for (f, h) in fw.detections.iter().zip(&host.detections) {
             assert_eq!(
                 (f.range_bin, f.column),
@@ -433,7 +462,7 @@ fn static_buffers_have_the_sizes_of_the_core_types() {
     let Some(m) = measured() else { return };
     // Host `size_of` (64-bit) vs the ELF (32-bit): arrays are identical, every `usize` length
     // field is 4 bytes shorter on the Cortex-M (plus the padding that follows it).
-    let host = |image: Image| -> [(&str, usize); 6] {
+    let host = |image: Image| -> [(&str, usize); 7] {
         match (image.preset, image.chain) {
             (Preset::ColoRadar, Chain::Dbe) => [
                 ("CUBE", size_of::<c::CubeStorage>()),
@@ -442,6 +471,7 @@ fn static_buffers_have_the_sizes_of_the_core_types() {
                 ("FRONTEND", size_of::<c::Frontend>()),
                 ("CLOUD", size_of::<c::PointCloud>()),
                 ("DMA_CHIRP", size_of::<c::Chirp>()),
+                ("EGO", size_of::<c::EgoEstimator>()),
             ],
             (Preset::Iwr6843, Chain::Dbe) => [
                 ("CUBE", size_of::<i::CubeStorage>()),
@@ -450,6 +480,7 @@ fn static_buffers_have_the_sizes_of_the_core_types() {
                 ("FRONTEND", size_of::<i::Frontend>()),
                 ("CLOUD", size_of::<i::PointCloud>()),
                 ("DMA_CHIRP", size_of::<i::Chirp>()),
+                ("EGO", size_of::<i::EgoEstimator>()),
             ],
             (Preset::ColoRadar, Chain::Fft) => [
                 ("CUBE", size_of::<c::CubeStorage>()),
@@ -458,6 +489,7 @@ fn static_buffers_have_the_sizes_of_the_core_types() {
                 ("FRONTEND", size_of::<c::Frontend>()),
                 ("CLOUD", size_of::<c::PointCloud>()),
                 ("DMA_CHIRP", size_of::<c::Chirp>()),
+                ("EGO", size_of::<c::EgoEstimator>()),
             ],
             (Preset::Iwr6843, Chain::Fft) => [
                 ("CUBE", size_of::<i::CubeStorage>()),
@@ -466,6 +498,7 @@ fn static_buffers_have_the_sizes_of_the_core_types() {
                 ("FRONTEND", size_of::<i::Frontend>()),
                 ("CLOUD", size_of::<i::PointCloud>()),
                 ("DMA_CHIRP", size_of::<i::Chirp>()),
+                ("EGO", size_of::<i::EgoEstimator>()),
             ],
         }
     };

@@ -29,13 +29,14 @@ fn the_resources_table_is_the_measured_budget() {
     let expected = [
         format!(
             "| static RAM (cube {} + workspace {} + chain tables {} + frontend {} + points {} + \
-             DMA buffer {} + other {}) | {} B |",
+             DMA buffer {} + ego-velocity {} + other {}) | {} B |",
             bytes("CUBE"),
             bytes("WORKSPACE"),
             bytes("CHAIN"),
             bytes("FRONTEND"),
             bytes("CLOUD"),
             bytes("DMA_CHIRP"),
+            bytes("EGO"),
             bytes("other"),
             thousands(p.static_ram_bytes)
         ),
