@@ -35,7 +35,9 @@ fn s(p: &Path) -> &str {
 
 #[test]
 fn every_subcommand_has_help() {
-    for sub in ["process", "simulate", "validate", "plot", "demo"] {
+    for sub in [
+        "process", "simulate", "validate", "plot", "demo", "eval", "bench",
+    ] {
         let help = ok(&[sub, "--help"]);
         assert!(help.contains("Usage: dbe"), "{sub}: {help}");
     }
@@ -205,4 +207,22 @@ fn processes_the_real_capture() -> TestResult {
         "{strongest:?}"
     );
     Ok(())
+}
+
+#[test]
+fn bench_prints_every_stage_of_both_chains() {
+    let out = ok(&["bench", "--frames", "3"]);
+    for row in [
+        "| dbe | ingest",
+        "| dbe | azimuth_capon |",
+        "| dbe | cfar |",
+        "| dbe | elevation_doppler |",
+        "| fft | doppler_fft |",
+        "| fft | rd_cfar |",
+        "| fft | angles |",
+        "| fft | **frame** (",
+    ] {
+        assert!(out.contains(row), "no `{row}` in\n{out}");
+    }
+    assert!(fails(&["bench", "--frames", "0"]).contains("--frames 0"));
 }
