@@ -3,16 +3,19 @@
 //! ```text
 //! Frontend::push_chirp : DC removal, window, range FFT ──▶ Cube[bin][row][loop]  (frontend.rs)
 //! Frontend::frame      : all chirps in order? ──▶ Frame
-//! Dbe::map             : per kept range bin b: R_b = X·Xᴴ/K of the AZ azimuth rows,
-//!                        FB averaging, loading ──▶ RA[b][i] = Capon power      (capon.rs)
-//! Dbe::detect          : OS-CFAR on RA, row floor δ_b/AZ ──▶ detections (b, i) (cfar.rs)
-//! Dbe::points          : per detection, the full M×M R_b once per distinct bin:
-//!                        compensate_tdm: Doppler of the azimuth beam, rotate R_b,
+//! Dbe::azimuth_map     : per kept range bin b: R_b = X·Xᴴ/K of the AZ azimuth rows,
+//!   (Chain::map)         FB averaging, loading ──▶ RA[b][i] = Capon power      (capon.rs)
+//! Dbe::detect_targets  : OS-CFAR on RA, row floor δ_b/AZ ──▶ detections (b, i) (cfar.rs)
+//!   (Chain::detect)
+//! Dbe::resolve         : per detection, the full M×M R_b once per distinct bin:
+//!   (Chain::points)      compensate_tdm: Doppler of the azimuth beam, rotate R_b,
 //!                          climb to the compensated azimuth peak            (tdm.rs)
 //!                        elevation::sweep on R_b (no FB) ──▶ ≤ 2 peaks       (elevation.rs)
 //!                        per peak: Capon weight ──▶ slow time ──▶ Doppler FFT (doppler.rs)
 //!                          ──▶ Point::at(range, μ, ν)                         (points.rs)
 //! ```
+//!
+//! `Chain::process` is the three stages in order; a caller can run and time them one by one.
 
 use num_complex::Complex32;
 
