@@ -226,3 +226,52 @@ fn bench_prints_every_stage_of_both_chains() {
     }
     assert!(fails(&["bench", "--frames", "0"]).contains("--frames 0"));
 }
+
+#[test]
+fn parameter_options_take_negative_numbers_and_refuse_absurd_values() -> TestResult {
+    let tmp = tempfile::tempdir()?;
+    let seq = tmp.path().join("seq");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/single_target.toml");
+    ok(&[
+        "simulate",
+        "--scene",
+        s(&scene),
+        "--frames",
+        "1",
+        "--out",
+        s(&seq),
+    ]);
+    let out = tmp.path().join("neg");
+    ok(&[
+        "process",
+        s(&seq),
+        "--out",
+        s(&out),
+        "--cfar-threshold-db",
+        "-3",
+    ]);
+    assert!(out.join("single_chip").is_dir());
+    for (flag, value, expected) in [
+        (
+            "--loading",
+            "1e9",
+            "--loading 1000000000: expected a value in (0, 1]",
+        ),
+        (
+            "--loading",
+            "-0.5",
+            "--loading -0.5: expected a value in (0, 1]",
+        ),
+        (
+            "--cfar-threshold-db",
+            "90",
+            "expected a value in [-10, 60] dB",
+        ),
+    ] {
+        let bad = tmp.path().join(format!("bad{flag}{value}"));
+        let err = fails(&["process", s(&seq), "--out", s(&bad), flag, value]);
+        assert!(err.contains(expected), "{flag} {value}: {err}");
+        assert!(!bad.exists(), "{flag} {value}: nothing is written");
+    }
+    Ok(())
+}

@@ -19,11 +19,11 @@ pub struct ParamArgs {
     /// Turn TDM-MIMO motion compensation off (reproduces the paper's chain).
     #[arg(long)]
     pub no_tdm_compensation: bool,
-    /// CFAR threshold α over the noise level, dB [default: 8].
-    #[arg(long, value_name = "DB")]
+    /// CFAR threshold α over the noise level, dB, in [−10, 60] [default: 8].
+    #[arg(long, value_name = "DB", allow_negative_numbers = true)]
     pub cfar_threshold_db: Option<f32>,
-    /// Diagonal loading γ (δ = γ·tr(R)/M) [default: 0.01].
-    #[arg(long, value_name = "GAMMA")]
+    /// Diagonal loading γ (δ = γ·tr(R)/M), in (0, 1] [default: 0.01].
+    #[arg(long, value_name = "GAMMA", allow_negative_numbers = true)]
     pub loading: Option<f32>,
     /// Sub-grid refinement of range, azimuth, elevation and Doppler (continuous coordinates
     /// instead of grid values; bin indices unchanged).
@@ -38,9 +38,19 @@ impl ParamArgs {
         p.tdm_compensation = !self.no_tdm_compensation;
         p.subgrid = self.subgrid;
         if let Some(t) = self.cfar_threshold_db {
+            // Below −10 dB every local maximum is a detection; above 60 dB nothing a 16-bit
+            // ADC can record passes.
+            if !(-10.0..=60.0).contains(&t) {
+                anyhow::bail!("--cfar-threshold-db {t}: expected a value in [-10, 60] dB");
+            }
             p.cfar.threshold_db = t;
         }
         if let Some(g) = self.loading {
+            // γ is a fraction of the mean antenna power: above 1 the loading outweighs the
+            // data and Capon degenerates into a plain beamscan.
+            if !(g > 0.0 && g <= 1.0) {
+                anyhow::bail!("--loading {g}: expected a value in (0, 1]");
+            }
             p.loading = g;
         }
         Ok(p)
