@@ -275,3 +275,32 @@ fn parameter_options_take_negative_numbers_and_refuse_absurd_values() -> TestRes
     }
     Ok(())
 }
+
+/// An occupied `--out` is refused with the folder untouched (`simulate` stages the output
+/// folder before it simulates, so the refusal costs no simulation).
+#[test]
+fn simulate_refuses_an_occupied_out() -> TestResult {
+    let tmp = tempfile::tempdir()?;
+    std::fs::write(tmp.path().join("keep.txt"), "mine")?;
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/corridor.toml");
+    let err = fails(&[
+        "simulate",
+        "--scene",
+        s(&scene),
+        "--frames",
+        "3",
+        "--out",
+        s(tmp.path()),
+    ]);
+    assert!(err.contains("not empty"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("keep.txt"))?,
+        "mine"
+    );
+    assert_eq!(
+        std::fs::read_dir(tmp.path())?.count(),
+        1,
+        "nothing else written"
+    );
+    Ok(())
+}

@@ -56,12 +56,23 @@ pub fn simulate(scene: &Scene, sensor: &SensorConfig, frames: usize) -> Result<V
 /// Write `frames` as a sequence with ground truth into `dir` (must not exist or be empty).
 pub fn write(dir: &Path, sensor: &SensorConfig, frames: &[SimFrame]) -> Result<()> {
     let staged = StagedDir::new(dir)?;
+    write_into(&staged, dir, sensor, frames)?;
+    staged.commit()?;
+    Ok(())
+}
+
+/// Write `frames` into the staged folder of `dir` (not committed).
+fn write_into(
+    staged: &StagedDir,
+    dir: &Path,
+    sensor: &SensorConfig,
+    frames: &[SimFrame],
+) -> Result<()> {
     let pairs: Vec<(f64, &host_sim::frame::AdcFrame)> =
         frames.iter().map(|f| (f.time_s, &f.adc)).collect();
     write_sequence(staged.path(), sensor, &pairs)?;
     sim::write_truth(staged.path(), frames)
         .with_context(|| format!("writing ground truth under {}", dir.display()))?;
-    staged.commit()?;
     Ok(())
 }
 
@@ -75,8 +86,11 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         Some(dir) => load_calib(dir)?,
         None => SensorConfig::coloradar(),
     };
+    // The output folder is checked (and staged) before the simulation, not after it.
+    let staged = StagedDir::new(&args.out)?;
     let frames = simulate(&scene, &sensor, args.frames)?;
-    write(&args.out, &sensor, &frames)?;
+    write_into(&staged, &args.out, &sensor, &frames)?;
+    staged.commit()?;
     let scatterers: usize = frames.iter().map(|f| f.truth.scatterers).sum();
     println!(
         "scene `{}`: {} frames ({} scatterers per frame on average) → {}",
