@@ -121,7 +121,8 @@ impl Model {
         omega * p::LOOPS as f64 * self.t_loop / std::f64::consts::TAU
     }
 
-    /// Predicted ν̂: the true ν plus the TDM slot phase left after compensating with bin `d`.
+    /// Predicted ν̂: the true ν plus the TDM slot phase left after compensating with the
+    /// (fractional) Doppler `d`, in bins.
     fn predicted_nu(&self, nu: f64, v: f64, d: f64) -> f64 {
         let f = self.slow_time_bins(v);
         let (mut re, mut im) = (0.0, 0.0);
@@ -222,8 +223,16 @@ fn errors(r: &Run, pt: &Point, t: &Target, amp: f64, noise: f64) -> Errors {
     let mu_est = f64::from(r.chain.azimuth_grid()[usize::from(pt.azimuth_bin)]);
     let nu_est = f64::from(pt.position.z) / f64::from(pt.position.length());
     let d = f64::from(pt.doppler_bin);
+    // The chain compensates with the detection's bin plus its sub-bin offset on the RD map.
     let comp = if r.chain.params().tdm_compensation {
-        d
+        let row = &r.work.range_doppler()[usize::from(pt.range_bin)];
+        let k = (pt.doppler_bin as i32).rem_euclid(p::LOOPS as i32) as usize;
+        let at = |i: usize| row[i % p::LOOPS];
+        d + f64::from(dbe_radar::refine::parabolic_offset(
+            at(k + p::LOOPS - 1),
+            at(k),
+            at(k + 1),
+        ))
     } else {
         0.0
     };

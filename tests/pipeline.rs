@@ -8,19 +8,22 @@
 //!   so a target moving at `v` is `|v|·T_frame/2` farther on; the noise of a range-FFT peak
 //!   summed over `M·K` = 1,536 chirps at ≥ 19 dB per chirp is below 0.01 bin (single-tone
 //!   Cramér–Rao bound, ×2 for the Blackman main lobe), 0.04 bin as 4σ.
-//! - **azimuth**: the TDM compensation uses the integer Doppler bin, leaving up to half a
+//! - **azimuth**: a TDM compensation with the integer Doppler bin would leave up to half a
 //!   Doppler bin of slot phase, `2π·½·1/(K·TX)` = 0.008 rad between the two halves of the
-//!   azimuth line (slots 0 and 1), a tilt of about 0.001 in μ (0.05°, 0.07 step); the noise
-//!   of an 8-element Capon estimate at these SNRs is below 0.03° (4σ ≈ 0.15 step).
+//!   azimuth line (slots 0 and 1), a tilt of about 0.001 in μ (0.05°, 0.07 step); the chain
+//!   compensates with the fractional Doppler, so this is an upper bound. The noise of an
+//!   8-element Capon estimate at these SNRs is below 0.03° (4σ ≈ 0.15 step).
 //! - **elevation**: the same residual between the elevation row (slot 2) and the azimuth
-//!   elements it is compared with (slots 0 and 1, mean 1.5 slots) is up to
-//!   `2π·½·1.5/(K·TX)` = 0.012 rad, i.e. `Δν = 0.012/(κ·Δel)` = 0.0039 (0.22°, 0.45 step);
-//!   the 12-element CRB at 19 dB per chirp and `K` = 128 snapshots is σ_ν ≈ 0.0013 (0.08°,
-//!   4σ = 0.6 step). The targets sit on elevation bin centres, so a grid estimate is off by
-//!   a whole number of steps: bias + noise can exceed the half step and land it exactly one
-//!   step (0.5°) away, which the f32 grid reports as 0.99999987 steps. That is why one
-//!   estimate of `several_targets_in_one_frame_are_all_recovered` sits there: the truth is on
-//!   a bin, the estimate one bin off, within the bound (0.5 + 0.45 + 0.6 ≈ 1.55 steps).
+//!   elements it is compared with (slots 0 and 1, mean 1.5 slots) would be up to
+//!   `2π·½·1.5/(K·TX)` = 0.012 rad, i.e. `Δν = 0.012/(κ·Δel)` = 0.0039 (0.22°, 0.45 step),
+//!   with the integer bin (again an upper bound now); the 12-element CRB at 19 dB per chirp
+//!   and `K` = 128 snapshots is σ_ν ≈ 0.0013 (0.08°, 4σ = 0.6 step). The targets sit on
+//!   elevation bin centres, so a grid estimate is off by a whole number of steps: bias +
+//!   noise can exceed the half step and land it exactly one step (0.5°) away, which the f32
+//!   grid reports as 0.99999987 steps. That is why one estimate of
+//!   `several_targets_in_one_frame_are_all_recovered` sat there while the compensation used
+//!   the integer bin (0.26 bin residual at 0.4 m/s: 0.12° of bias); the bound
+//!   (0.5 + 0.45 + 0.6 ≈ 1.55 steps) allows it.
 //! - **Doppler**: this synthesis puts the carrier phase at `f_c` (the spec before its
 //!   amendment to `f_0`), so velocities read `S·N/(2·fs·f_c)` = 0.77 % high, 0.0077·|d| bins;
 //!   the slow-time peak's noise over 12 antennas and 128 loops is below 0.02 bin (4σ 0.08).

@@ -38,7 +38,8 @@
 //!   say. Spec as written detects the ripples of the loading ridge under every strong target.
 //! - **TDM-MIMO compensation (when enabled).** The Capon weight of the azimuth line at the
 //!   detection's `μ` beamforms the slow time; the strongest bin `d` of its windowed Doppler FFT
-//!   gives `v = d·λ/(2·K·T_loop)`; every row `m` is multiplied by
+//!   plus its log-parabola offset `δ` (from the two neighbours) gives
+//!   `v = (d + δ)·λ/(2·K·T_loop)`; every row `m` is multiplied by
 //!   `exp(−j·4π·v·slot_m·Tc/λ)` (the covariance becomes `D·R·Dᴴ`); the azimuth bin then
 //!   climbs the compensated azimuth spectrum uphill, at most `tdm_azimuth_search` bins (left
 //!   when `left > here` and `left ≥ right`, else right when `right > here`).
@@ -1066,8 +1067,9 @@ fn resolve(
             return;
         };
         let w = az.weight(&setup.steering(line, setup.az_mu[i], 0.0));
-        let (d, _) = setup.doppler(beamform(&w, &rot, x), margin);
-        let v = f64::from(d) * setup.doppler_bin_mps;
+        // The fractional Doppler (strongest bin plus its log-parabola offset), as the core.
+        let (d, offset) = setup.doppler(beamform(&w, &rot, x), margin);
+        let v = (f64::from(d) + offset) * setup.doppler_bin_mps;
         // Slot t fires t·Tc after the loop start: its Doppler phase is 4π·v·t·Tc/λ ahead.
         for (o, e) in rot.iter_mut().zip(&setup.array.elements) {
             *o = Complex64::from_polar(1.0, -setup.slot_phase_per_mps * v * e.slot as f64);

@@ -9,7 +9,7 @@
 //! detect_targets: CA- or OS-CFAR on RD (Doppler periodic) + 3×3 local max   (cfar.rs)
 //! angles        : per detection (b, d):
 //!                    x_m = Σ_k w_k·cube[b][m][k]·e^{−j2πdk/K}          (single-bin DFT)
-//!                    x_m ·= e^{−j·4π·v·t_m·Tc/λ}                      (tdm.rs)
+//!                    x_m ·= e^{−j·4π·v·t_m·Tc/λ}, v of d + its sub-bin offset  (tdm.rs)
 //!                    azimuth: beamscan |aᴴx|² of the line on the μ grid → peak i
 //!                    elevation: ψ = arg Σ x_line(a)·x_el(a)*, ν = ψ / (κ·Δel)  (elevation.rs)
 //!                    Point::at(range, μ, ν)                            (points.rs)
@@ -69,7 +69,9 @@
 //! boresight) at ρ = 15 dB for ColoRadar; `tests/fft_pipeline.rs` derives it and checks it.
 //!
 //! TDM-MIMO compensation multiplies row `m` (TX slot `t_m`) by `exp(−j·4π·v·t_m·Tc/λ)` with
-//! the detection's Doppler `v = d'·λ/(2·K·TX·Tc)`, i.e. `exp(−j·2π·d'·t_m/(K·TX))`. Without
+//! the detection's Doppler `v = d'·λ/(2·K·TX·Tc)`, i.e. `exp(−j·2π·d'·t_m/(K·TX))`, where
+//! `d'` is the detection's signed bin plus its sub-bin offset on the RD map (the integer bin
+//! alone leaves up to half a bin of slot phase, an elevation bias of up to 0.2°). Without
 //! it a moving target's slot-dependent phase biases both angles: for ColoRadar the elevation
 //! row (slot 2) is paired with line elements of slots 0 and 1, so ν is off by about
 //! `−2π·f·1.5/(K·TX·κ·Δel)` (f the Doppler in bins): −0.20 (−11.5°) at 1 m/s.
@@ -493,8 +495,9 @@ impl<
         }
     }
 
-    /// The windowed Doppler bin `d` (natural index) of every row, TDM-compensated when on.
-    fn doppler_cell(&self, snap: &Snapshots<K, M>, d: usize, signed: i16) -> [Complex32; M] {
+    /// The windowed Doppler bin `d` (natural index) of every row, TDM-compensated when on
+    /// for the Doppler `doppler_bins` (signed, fractional).
+    fn doppler_cell(&self, snap: &Snapshots<K, M>, d: usize, doppler_bins: f32) -> [Complex32; M] {
         let mut x = [ZERO; M];
         for (o, row) in x.iter_mut().zip(snap.iter()) {
             let mut acc = ZERO;
@@ -505,7 +508,7 @@ impl<
             *o = acc;
         }
         if self.params.tdm_compensation {
-            let rot = tdm::rotation::<K, TX, M>(&self.layout.slot, f32::from(signed));
+            let rot = tdm::rotation::<K, TX, M>(&self.layout.slot, doppler_bins);
             for (v, r) in x.iter_mut().zip(rot.iter()) {
                 *v *= r;
             }
@@ -523,7 +526,16 @@ impl<
     ) {
         let d = usize::from(det.column) & (K - 1);
         let signed = signed_bin::<K>(d);
-        let x = self.doppler_cell(snap, d, signed);
+        let b = usize::from(det.range_bin);
+        let at = |b: Option<usize>, d: usize| {
+            b.and_then(|b| rd.get(b))
+                .map_or(0.0, |row| row[d & (K - 1)])
+        };
+        // The detection's fractional Doppler from its RD neighbours: TDM compensation with the
+        // integer bin alone leaves up to half a bin of slot phase (an elevation bias).
+        let c = at(Some(b), d);
+        let doppler_frac = parabolic_offset(at(Some(b), d + K - 1), c, at(Some(b), d + 1));
+        let x = self.doppler_cell(snap, d, f32::from(signed) + doppler_frac);
 
         // Azimuth: beamscan of the line on the μ grid; an end-of-grid peak is out of span.
         let beam_power = |beam: &[Complex32; AZ]| {
@@ -544,18 +556,11 @@ impl<
         if i == 0 || i + 1 >= NAZ {
             return;
         }
-        let b = usize::from(det.range_bin);
         let (mut range_bins, mut doppler_bins, mut mu) =
             (b as f32, f32::from(signed), self.az_mu[i]);
         if self.params.subgrid {
-            let at = |b: Option<usize>, d: usize| {
-                b.and_then(|b| rd.get(b))
-                    .map_or(0.0, |row| row[d & (K - 1)])
-            };
-            let (l, c, r) = (at(b.checked_sub(1), d), at(Some(b), d), at(Some(b + 1), d));
-            range_bins += parabolic_offset(l, c, r);
-            let (l, r) = (at(Some(b), d + K - 1), at(Some(b), d + 1));
-            doppler_bins += parabolic_offset(l, c, r);
+            range_bins += parabolic_offset(at(b.checked_sub(1), d), c, at(Some(b + 1), d));
+            doppler_bins += doppler_frac;
             let frac = parabolic_offset(
                 beam_power(&self.az_beam[i - 1]),
                 best.1,
