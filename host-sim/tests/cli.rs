@@ -304,3 +304,30 @@ fn simulate_refuses_an_occupied_out() -> TestResult {
     );
     Ok(())
 }
+
+#[test]
+fn a_single_coloradar_frame_is_refused_with_its_sequence_named() -> TestResult {
+    let tmp = tempfile::tempdir()?;
+    let seq = tmp.path().join("seq");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/single_target.toml");
+    ok(&[
+        "simulate",
+        "--scene",
+        s(&scene),
+        "--frames",
+        "1",
+        "--out",
+        s(&seq),
+    ]);
+    let frame = seq.join("single_chip/adc_samples/data/frame_0.bin");
+    assert!(frame.is_file());
+    let out = tmp.path().join("out");
+    let err = fails(&["process", s(&frame), "--out", s(&out)]);
+    assert!(
+        err.contains("a single frame of a ColoRadar sequence"),
+        "{err}"
+    );
+    assert!(err.contains(s(&seq)), "names the sequence folder: {err}");
+    assert!(!out.exists());
+    Ok(())
+}

@@ -38,6 +38,15 @@ impl Input {
         if !path.exists() {
             bail!("{}: no such file or folder (expected a ColoRadar sequence folder or a DCA1000 .bin file)", path.display());
         }
+        if let Some(seq) = coloradar_frame_sequence(path) {
+            bail!(
+                "{}: a single frame of a ColoRadar sequence, not a DCA1000 capture (its layout \
+                 is [tx][rx][chirp][sample], a capture's is loop → TX → RX); process the \
+                 sequence folder {} (with --frames to choose frames)",
+                path.display(),
+                seq.display()
+            );
+        }
         let beside = if path.is_dir() {
             Some(path.join("calib"))
         } else {
@@ -143,6 +152,24 @@ pub fn frame_range(spec: Option<&str>, len: usize) -> Result<Range<usize>> {
         );
     }
     Ok(range)
+}
+
+/// The sequence folder of a ColoRadar frame file (`SEQ/single_chip/adc_samples/data/
+/// frame_<i>.bin`), or `None` for any other path. Decided from the layout of the dataset, not
+/// the extension: both formats are `.bin`.
+fn coloradar_frame_sequence(path: &Path) -> Option<PathBuf> {
+    let name = path.file_name()?.to_str()?;
+    let index = name.strip_prefix("frame_")?.strip_suffix(".bin")?;
+    if index.is_empty() || !index.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    let data = path.parent()?;
+    let adc = data.parent()?;
+    let chip = adc.parent()?;
+    let names = [data, adc, chip].map(|d| d.file_name().and_then(|n| n.to_str()));
+    (names == [Some("data"), Some("adc_samples"), Some("single_chip")])
+        .then(|| chip.parent().map(Path::to_path_buf))
+        .flatten()
 }
 
 #[cfg(test)]
