@@ -29,6 +29,23 @@ fn fails(args: &[&str]) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// `../shared` beside the repository when the TI capture is there; `None` (a skip) outside CI,
+/// a failure naming the path under `CI=true`.
+fn shared_fixture_dir() -> Option<PathBuf> {
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared");
+    let bin = shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin");
+    if bin.is_file() {
+        return Some(shared);
+    }
+    assert!(
+        std::env::var("CI").as_deref() != Ok("true"),
+        "{} is missing (../shared beside the repository)",
+        bin.display()
+    );
+    eprintln!("skipped: {} not found", bin.display());
+    None
+}
+
 fn s(p: &Path) -> &str {
     p.to_str().unwrap_or_default()
 }
@@ -183,17 +200,10 @@ fn demo_runs_and_replaces_only_its_own_output() -> TestResult {
 /// The real TI capture: the corner reflector at range bin 38 (its folder holds the calibration).
 #[test]
 fn processes_the_real_capture() -> TestResult {
-    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared");
-    let bin = shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin");
-    if !bin.is_file() {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "{} is missing (../shared beside the repository)",
-            bin.display()
-        );
-        eprintln!("skipped: {} not found", bin.display());
+    let Some(shared) = shared_fixture_dir() else {
         return Ok(());
-    }
+    };
+    let bin = shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin");
     let tmp = tempfile::tempdir()?;
     let out = tmp.path().join("ti");
     ok(&["process", s(&bin), "--out", s(&out), "--format", "csv"]);
@@ -329,5 +339,41 @@ fn a_single_coloradar_frame_is_refused_with_its_sequence_named() -> TestResult {
     );
     assert!(err.contains(s(&seq)), "names the sequence folder: {err}");
     assert!(!out.exists());
+    Ok(())
+}
+
+#[test]
+fn a_capture_without_configuration_is_refused_with_the_sizes_that_fit() -> TestResult {
+    let Some(shared) = shared_fixture_dir() else {
+        return Ok(());
+    };
+    let tmp = tempfile::tempdir()?;
+    let capture = tmp.path().join("adc_data.bin");
+    std::fs::copy(
+        shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin"),
+        &capture,
+    )?;
+    let out = tmp.path().join("out");
+    // No configuration: both presets' frames divide its 786,432 bytes, and both are named.
+    let err = fails(&["process", s(&capture), "--out", s(&out)]);
+    assert!(err.contains("no header"), "{err}");
+    assert!(
+        err.contains("coloradar") && err.contains("iwr6843"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    // Half a configuration: the missing file is named.
+    std::fs::copy(
+        shared.join("fixtures/ti-iwr6843-corner-reflector/waveform_cfg.txt"),
+        tmp.path().join("waveform_cfg.txt"),
+    )?;
+    let err = fails(&["process", s(&capture), "--out", s(&out)]);
+    assert!(err.contains("no antenna_cfg.txt"), "{err}");
+    // Both files: it runs.
+    std::fs::copy(
+        shared.join("fixtures/ti-iwr6843-corner-reflector/antenna_cfg.txt"),
+        tmp.path().join("antenna_cfg.txt"),
+    )?;
+    ok(&["process", s(&capture), "--out", s(&out)]);
     Ok(())
 }

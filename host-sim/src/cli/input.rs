@@ -52,6 +52,12 @@ impl Input {
         } else {
             path.parent().map(Path::to_path_buf)
         };
+        if calib.is_none() && !path.is_dir() {
+            // A DCA1000 capture has no header: its sizes come from a configuration only.
+            if let Some(dir) = beside.as_deref().filter(|d| !has_calib(d)) {
+                refuse_headerless_capture(path, dir)?;
+            }
+        }
         let (sensor, calib_source) = match calib {
             Some(dir) => (load_calib(dir)?, dir.display().to_string()),
             None => match beside.filter(|d| has_calib(d)) {
@@ -118,6 +124,51 @@ impl Input {
             Input::Dca1000 { .. } => None,
         }
     }
+}
+
+/// The error for a DCA1000 capture with no (or half a) configuration beside it: name what is
+/// missing and, as a hint, the compiled presets whose frame size divides the file.
+fn refuse_headerless_capture(path: &Path, dir: &Path) -> Result<()> {
+    let (w, a) = ("waveform_cfg.txt", "antenna_cfg.txt");
+    match (dir.join(w).is_file(), dir.join(a).is_file()) {
+        (true, false) | (false, true) => {
+            let (have, lack) = if dir.join(w).is_file() {
+                (w, a)
+            } else {
+                (a, w)
+            };
+            bail!(
+                "{}: has {have} but no {lack}; a DCA1000 capture needs both (or --calib DIR)",
+                dir.display()
+            );
+        }
+        _ => {}
+    }
+    let bytes = std::fs::metadata(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?
+        .len();
+    let fits: Vec<String> = host_sim::core_run::Preset::ALL
+        .iter()
+        .filter_map(|p| {
+            let (n, k, tx, rx) = p.sizes();
+            let frame = (n * k * tx * rx * 4) as u64;
+            (bytes > 0 && bytes % frame == 0).then(|| format!("{p}: {} frames", bytes / frame))
+        })
+        .collect();
+    let hint = if fits.is_empty() {
+        "no compiled preset's frame size divides it".to_string()
+    } else {
+        format!(
+            "its {bytes} bytes are whole frames of {}",
+            fits.join(" or ")
+        )
+    };
+    bail!(
+        "{}: a DCA1000 capture has no header, so its sizes and waveform need a configuration: \
+         pass --calib DIR (waveform_cfg.txt and antenna_cfg.txt, or a ColoRadar calib folder) \
+         or put both files beside the capture ({hint})",
+        path.display()
+    )
 }
 
 fn has_calib(dir: &Path) -> bool {
