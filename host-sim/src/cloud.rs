@@ -41,3 +41,21 @@ impl From<&dbe_radar::Point> for PointRecord {
         }
     }
 }
+
+impl PointRecord {
+    /// The fields the core's later stages read (position, velocity, power, SNR) as a core
+    /// [`dbe_radar::Point`], e.g. to run the ego-velocity stage on host output; bins are
+    /// clamped into the core's integer types.
+    pub fn to_point(&self) -> dbe_radar::Point {
+        dbe_radar::Point {
+            position: dbe_radar::Vec3::new(self.x as f32, self.y as f32, self.z as f32),
+            velocity_mps: self.doppler as f32,
+            power_db: self.intensity_db as f32,
+            snr_db: self.snr_db as f32,
+            range_bin: self.range_bin.min(u32::from(u16::MAX)) as u16,
+            azimuth_bin: self.azimuth_bin.min(u32::from(u16::MAX)) as u16,
+            elevation_bin: self.elevation_bin.min(u32::from(u16::MAX)) as u16,
+            doppler_bin: self.doppler_bin.clamp(i16::MIN.into(), i16::MAX.into()) as i16,
+        }
+    }
+}

@@ -174,16 +174,7 @@ fn ego_velocity_from_the_points_of_a_moving_sensor() -> TestResult {
     let mut ok = 0;
     for i in 0..FRAMES {
         let out = runner.process(&sim.frame(i)?.adc)?;
-        let points: Vec<Point> = out
-            .points
-            .iter()
-            .map(|p| Point {
-                position: dbe_radar::Vec3::new(p.x as f32, p.y as f32, p.z as f32),
-                velocity_mps: p.doppler as f32,
-                snr_db: p.snr_db as f32,
-                ..Point::default()
-            })
-            .collect();
+        let points: Vec<Point> = out.points.iter().map(PointRecord::to_point).collect();
         let e = ego.estimate(&points);
         println!("frame {i}: {e:?}");
         if e.status != EgoStatus::Ok {

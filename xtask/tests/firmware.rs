@@ -241,16 +241,7 @@ fn firmware_output_equals_the_host_core_on_the_same_frame() {
         assert_eq!(fw.stats, host.stats, "{preset}: frame statistics");
         assert_eq!(fw.detections.len(), host.detections.len(), "{preset}");
         // The ego-velocity stage on the host's points gives the firmware's verdict.
-        let points: Vec<dbe_radar::Point> = host
-            .points
-            .iter()
-            .map(|p| dbe_radar::Point {
-                position: dbe_radar::Vec3::new(p.x as f32, p.y as f32, p.z as f32),
-                velocity_mps: p.doppler as f32,
-                snr_db: p.snr_db as f32,
-                ..dbe_radar::Point::default()
-            })
-            .collect();
+        let points: Vec<dbe_radar::Point> = host.points.iter().map(PointRecord::to_point).collect();
         let mut ego = Box::new(dbe_radar::EgoEstimator::<128>::unconfigured());
         ego.configure(dbe_radar::EgoParams::DEFAULT)
             .expect("valid defaults");
