@@ -46,6 +46,22 @@ fn shared_fixture_dir() -> Option<PathBuf> {
     None
 }
 
+/// Simulate `frames` frames of the shipped scene `scene` into `dir/seq`; returns the sequence.
+fn simulated(dir: &Path, scene: &str, frames: &str) -> PathBuf {
+    let seq = dir.join("seq");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{scene}.toml"));
+    ok(&[
+        "simulate",
+        "--scene",
+        s(&scene),
+        "--frames",
+        frames,
+        "--out",
+        s(&seq),
+    ]);
+    seq
+}
+
 fn s(p: &Path) -> &str {
     p.to_str().unwrap_or_default()
 }
@@ -64,17 +80,7 @@ fn every_subcommand_has_help() {
 #[test]
 fn simulate_process_validate_plot() -> TestResult {
     let tmp = tempfile::tempdir()?;
-    let seq = tmp.path().join("seq");
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/moving_sensor.toml");
-    ok(&[
-        "simulate",
-        "--scene",
-        s(&scene),
-        "--frames",
-        "3",
-        "--out",
-        s(&seq),
-    ]);
+    let seq = simulated(tmp.path(), "moving_sensor", "3");
     assert!(seq
         .join("single_chip/adc_samples/data/frame_2.bin")
         .is_file());
@@ -174,6 +180,11 @@ fn failures_are_one_line_errors_and_leave_nothing_behind() -> TestResult {
     ]);
     assert!(err.contains("not empty"), "{err}");
     assert_eq!(std::fs::read_to_string(taken.join("keep.txt"))?, "mine");
+    assert_eq!(
+        std::fs::read_dir(&taken)?.count(),
+        1,
+        "nothing else written"
+    );
 
     let err = fails(&["process", s(&bin), "--out", s(&out), "--format", "xyz"]);
     assert!(err.contains("xyz"), "{err}");
@@ -240,17 +251,7 @@ fn bench_prints_every_stage_of_both_chains() {
 #[test]
 fn parameter_options_take_negative_numbers_and_refuse_absurd_values() -> TestResult {
     let tmp = tempfile::tempdir()?;
-    let seq = tmp.path().join("seq");
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/single_target.toml");
-    ok(&[
-        "simulate",
-        "--scene",
-        s(&scene),
-        "--frames",
-        "1",
-        "--out",
-        s(&seq),
-    ]);
+    let seq = simulated(tmp.path(), "single_target", "1");
     let out = tmp.path().join("neg");
     ok(&[
         "process",
@@ -286,49 +287,10 @@ fn parameter_options_take_negative_numbers_and_refuse_absurd_values() -> TestRes
     Ok(())
 }
 
-/// An occupied `--out` is refused with the folder untouched (`simulate` stages the output
-/// folder before it simulates, so the refusal costs no simulation).
-#[test]
-fn simulate_refuses_an_occupied_out() -> TestResult {
-    let tmp = tempfile::tempdir()?;
-    std::fs::write(tmp.path().join("keep.txt"), "mine")?;
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/corridor.toml");
-    let err = fails(&[
-        "simulate",
-        "--scene",
-        s(&scene),
-        "--frames",
-        "3",
-        "--out",
-        s(tmp.path()),
-    ]);
-    assert!(err.contains("not empty"), "{err}");
-    assert_eq!(
-        std::fs::read_to_string(tmp.path().join("keep.txt"))?,
-        "mine"
-    );
-    assert_eq!(
-        std::fs::read_dir(tmp.path())?.count(),
-        1,
-        "nothing else written"
-    );
-    Ok(())
-}
-
 #[test]
 fn a_single_coloradar_frame_is_refused_with_its_sequence_named() -> TestResult {
     let tmp = tempfile::tempdir()?;
-    let seq = tmp.path().join("seq");
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/single_target.toml");
-    ok(&[
-        "simulate",
-        "--scene",
-        s(&scene),
-        "--frames",
-        "1",
-        "--out",
-        s(&seq),
-    ]);
+    let seq = simulated(tmp.path(), "single_target", "1");
     let frame = seq.join("single_chip/adc_samples/data/frame_0.bin");
     assert!(frame.is_file());
     let out = tmp.path().join("out");
