@@ -7,6 +7,7 @@ pub mod eval;
 pub mod frame;
 pub mod harness;
 pub mod io;
+pub mod odometry;
 pub mod plot;
 pub mod reference;
 pub mod score;

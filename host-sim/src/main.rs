@@ -31,6 +31,9 @@ enum Command {
     Eval(cli::eval::EvalArgs),
     /// Time every stage of both chains on simulated ColoRadar frames (one thread).
     Bench(cli::bench::BenchArgs),
+    /// Radar-inertial odometry on a ColoRadar sequence (radar ego-velocity + IMU, error-state
+    /// EKF); trajectory in TUM format, evaluated against ground truth when the sequence has it.
+    Odometry(cli::odometry::OdometryArgs),
 }
 
 fn main() -> ExitCode {
@@ -43,6 +46,7 @@ fn main() -> ExitCode {
         Command::Demo(a) => cli::demo::run(a),
         Command::Eval(a) => cli::eval::run(a),
         Command::Bench(a) => cli::bench::run(a),
+        Command::Odometry(a) => cli::odometry::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

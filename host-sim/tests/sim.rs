@@ -38,6 +38,7 @@ fn still(position: [f64; 3], amplitude: f64, phase: f64) -> Scatterer {
     Scatterer {
         position,
         velocity: [0.0; 3],
+        acceleration: [0.0; 3],
         amplitude,
         phase,
     }
@@ -205,6 +206,7 @@ fn moving_target_phase_advances_per_loop_and_per_tx_slot() {
         let s = Scatterer {
             position: u.map(|x| 5.0 * x),
             velocity: u.map(|x| v * x),
+            acceleration: [0.0; 3],
             amplitude: amp,
             phase: 0.3,
         };
@@ -299,18 +301,21 @@ fn rendering_matches_the_literal_formula_with_rounding_and_clipping() {
         Scatterer {
             position: at(3.3, 10.0, 4.0),
             velocity: [1.1, 0.2, -0.1],
+            acceleration: [0.0; 3],
             amplitude: 700.0,
             phase: 0.1,
         },
         Scatterer {
             position: at(9.87, -50.0, -20.0),
             velocity: [-2.0, 0.5, 0.0],
+            acceleration: [0.0; 3],
             amplitude: 2500.5,
             phase: 2.0,
         },
         Scatterer {
             position: [6.0, 0.0, 1.0],
             velocity: [0.0, 8.0, 0.0],
+            acceleration: [0.0; 3],
             amplitude: 90.0,
             phase: -1.0,
         },
@@ -367,6 +372,7 @@ fn summation_error_is_below_1e_10_of_the_amplitude_sum() {
                 g.gen_range(-1.0..1.0),
                 g.gen_range(-1.0..1.0),
             ],
+            acceleration: [0.0; 3],
             amplitude: g.gen_range(0.1..100.0),
             phase: g.gen_range(0.0..2.0 * PI),
         })

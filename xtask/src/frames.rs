@@ -48,6 +48,7 @@ pub fn coloradar_frame() -> Result<AdcFrame, FirmwareError> {
             Scatterer {
                 position: u.map(|c| range * c),
                 velocity: u.map(|c| range_rate * c),
+                acceleration: [0.0; 3],
                 amplitude,
                 phase: rng.gen::<f64>() * std::f64::consts::TAU,
             }

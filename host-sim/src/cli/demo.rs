@@ -81,7 +81,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     );
     let frames = super::simulate::simulate(&scene, &sensor, args.frames)?;
     let seq = root.join("sequence");
-    super::simulate::write(&seq, &sensor, &frames)?;
+    super::simulate::write(&seq, &scene, &sensor, &frames)?;
 
     println!("2. process: DBE chain, core fed chirp by chirp");
     let opened = Input::open(&seq, None)?;

@@ -4,6 +4,7 @@ pub mod bench;
 pub mod demo;
 pub mod eval;
 pub mod input;
+pub mod odometry;
 pub mod plot;
 pub mod process;
 pub mod simulate;

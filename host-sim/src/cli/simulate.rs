@@ -24,7 +24,8 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub calib: Option<PathBuf>,
     /// Output sequence folder (must not exist or be empty; written all-or-nothing):
-    /// `single_chip/adc_samples/`, `calib/single_chip/`, `groundtruth/`.
+    /// `single_chip/adc_samples/`, `calib/single_chip/`, `calib/transforms/`, `groundtruth/`,
+    /// `imu/`.
     #[arg(long)]
     pub out: PathBuf,
 }
@@ -53,10 +54,11 @@ pub fn simulate(scene: &Scene, sensor: &SensorConfig, frames: usize) -> Result<V
     out.into_iter().collect()
 }
 
-/// Write `frames` as a sequence with ground truth into `dir` (must not exist or be empty).
-pub fn write(dir: &Path, sensor: &SensorConfig, frames: &[SimFrame]) -> Result<()> {
+/// Write `frames` of `scene` as a sequence with ground truth, IMU and transforms into `dir`
+/// (must not exist or be empty).
+pub fn write(dir: &Path, scene: &Scene, sensor: &SensorConfig, frames: &[SimFrame]) -> Result<()> {
     let staged = StagedDir::new(dir)?;
-    write_into(&staged, dir, sensor, frames)?;
+    write_into(&staged, dir, scene, sensor, frames)?;
     staged.commit()?;
     Ok(())
 }
@@ -65,6 +67,7 @@ pub fn write(dir: &Path, sensor: &SensorConfig, frames: &[SimFrame]) -> Result<(
 fn write_into(
     staged: &StagedDir,
     dir: &Path,
+    scene: &Scene,
     sensor: &SensorConfig,
     frames: &[SimFrame],
 ) -> Result<()> {
@@ -73,6 +76,7 @@ fn write_into(
     write_sequence(staged.path(), sensor, &pairs)?;
     sim::write_truth(staged.path(), frames)
         .with_context(|| format!("writing ground truth under {}", dir.display()))?;
+    sim::write_navigation(staged.path(), scene, frames.len())?;
     Ok(())
 }
 
@@ -89,7 +93,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     // The output folder is checked (and staged) before the simulation, not after it.
     let staged = StagedDir::new(&args.out)?;
     let frames = simulate(&scene, &sensor, args.frames)?;
-    write_into(&staged, &args.out, &sensor, &frames)?;
+    write_into(&staged, &args.out, &scene, &sensor, &frames)?;
     staged.commit()?;
     let scatterers: usize = frames.iter().map(|f| f.truth.scatterers).sum();
     println!(

@@ -112,6 +112,7 @@ impl Target {
         Scatterer {
             position: u.map(|x| x * r0),
             velocity: u.map(|x| x * self.radial_velocity_mps),
+            acceleration: [0.0; 3],
             amplitude: self.amplitude,
             phase: self.phase,
         }

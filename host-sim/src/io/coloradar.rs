@@ -95,7 +95,21 @@ pub(crate) fn parse_timestamps(
     text: &str,
     expected: usize,
 ) -> Result<Vec<f64>, IoError> {
-    let mut out: Vec<f64> = Vec::with_capacity(expected);
+    let out = parse_times(path, text)?;
+    if out.len() != expected {
+        return Err(IoError::TimestampCount {
+            path: path.to_path_buf(),
+            found: out.len(),
+            expected,
+        });
+    }
+    Ok(out)
+}
+
+/// Parse a timestamps file of any length: one finite, non-decreasing time in seconds per line
+/// (blank lines and `#` comments ignored).
+pub(crate) fn parse_times(path: &Path, text: &str) -> Result<Vec<f64>, IoError> {
+    let mut out: Vec<f64> = Vec::new();
     for (line, content) in content_lines(text) {
         let t: f64 = content.parse().map_err(|_| {
             IoError::syntax(path, line, format!("`{content}` is not a time in seconds"))
@@ -117,13 +131,6 @@ pub(crate) fn parse_timestamps(
             }
         }
         out.push(t);
-    }
-    if out.len() != expected {
-        return Err(IoError::TimestampCount {
-            path: path.to_path_buf(),
-            found: out.len(),
-            expected,
-        });
     }
     Ok(out)
 }

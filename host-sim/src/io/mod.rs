@@ -5,6 +5,7 @@
 //! | ColoRadar calibration | [`load_calib`] | [`write_calib`] | [`calib`] |
 //! | ColoRadar raw sequence | [`open_sequence`] | [`write_sequence`] | [`coloradar`] |
 //! | DCA1000 raw capture | [`read_dca1000`] | [`write_dca1000`] | [`dca1000`] |
+//! | ColoRadar IMU, ground truth, transforms | [`read_imu`], [`read_groundtruth`], [`load_transforms`] | [`write_imu`], [`write_transforms`] (poses: [`crate::sim::write_truth`]) | [`navigation`] |
 //! | point clouds | [`read_coloradar_pointclouds`], [`read_csv`], … | [`write_coloradar_pointclouds`], [`write_csv`], [`write_pcd`], [`write_ply`], … | [`pointcloud`] |
 //!
 //! Every malformed input is an [`IoError`] that names the file and what was expected; no
@@ -25,12 +26,17 @@ pub mod atomic;
 pub mod calib;
 pub mod coloradar;
 pub mod dca1000;
+pub mod navigation;
 pub mod pointcloud;
 
 pub use atomic::{write_file_atomic, StagedDir};
 pub use calib::{load_calib, write_calib};
 pub use coloradar::{open_sequence, write_sequence, Sequence};
 pub use dca1000::{read_dca1000, write_dca1000};
+pub use navigation::{
+    load_transforms, read_groundtruth, read_imu, write_imu, write_transforms, StampedPose,
+    Transforms,
+};
 pub use pointcloud::{
     read_coloradar_bin, read_coloradar_pointclouds, read_csv, write_coloradar_bin,
     write_coloradar_pointclouds, write_csv, write_pcd, write_ply, ColoradarCloudWriter,

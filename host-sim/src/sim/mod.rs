@@ -6,8 +6,12 @@
 //! - `world` (private): surface sampling, visibility and the world → radar transform.
 //! - [`truth`]: [`FrameTruth`] per frame and [`write_truth`].
 //!
-//! Data flow of [`Simulation::frame`]: sensor pose at `i / frame_rate` → every object placed in
-//! the radar frame (scatterers + truth) → [`try_render_frame`] with the frame's own noise
+//! - [`trajectory`]: 6-DoF rig motion ([`trajectory::Trajectory`]) and the sensor mounts.
+//! - [`imu`]: the simulated IMU ([`imu::simulate_imu`]).
+//!
+//! Data flow of [`Simulation::frame`]: rig pose at `i / frame_rate`, carried to the radar's
+//! mount → every object placed in the radar frame (scatterers with their motion relative to
+//! the radar to second order, and truth) → [`try_render_frame`] with the frame's own noise
 //! generator. Every random choice follows from the scene seed, so a frame depends only on
 //! `(scene, sensor, index)`.
 //!
@@ -19,12 +23,14 @@
 //! assert!(corner.visible && (corner.range_m - 4.08).abs() < 0.01);
 //! ```
 
+pub mod imu;
 pub mod render;
 pub mod scene;
+pub mod trajectory;
 pub mod truth;
 mod world;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use rand::{rngs::StdRng, SeedableRng};
 
@@ -154,7 +160,8 @@ impl Simulation {
     /// The scatterers of frame `index` (radar frame at the frame start) and its ground truth.
     pub fn scatterers(&self, index: usize) -> (Vec<Scatterer>, FrameTruth) {
         let time_s = self.time_s(index);
-        let pose = self.scene.sensor.pose(time_s);
+        let base = self.scene.sensor.pose(time_s);
+        let pose = base.mounted(&self.scene.rig.radar);
         let view = world::View::new(
             pose,
             time_s,
@@ -171,6 +178,7 @@ impl Simulation {
             index,
             time_s,
             sensor: pose.into(),
+            base: base.into(),
             scatterers: scatterers.len(),
             objects,
         };
@@ -192,6 +200,37 @@ impl Simulation {
             truth,
         })
     }
+}
+
+/// The IMU samples of `scene` over the `frames` frame periods of a simulated sequence (from 0
+/// to `frames / frame_rate_hz` s).
+pub fn scene_imu(scene: &Scene, frames: usize) -> Vec<imu::ImuSample> {
+    let duration_s = frames as f64 / scene.frame_rate_hz;
+    imu::simulate_imu(
+        &scene.imu,
+        &scene.sensor,
+        &scene.rig.imu,
+        duration_s,
+        scene.seed,
+    )
+}
+
+/// Write the navigation files of a simulated sequence of `frames` frames into `dir`:
+/// `imu/` ([`scene_imu`]) and `calib/transforms/` (the scene's rig), in ColoRadar's layout
+/// ([`crate::io::navigation`]). The ground-truth poses come with [`write_truth`].
+pub fn write_navigation(
+    dir: &Path,
+    scene: &Scene,
+    frames: usize,
+) -> Result<(), crate::io::IoError> {
+    crate::io::write_imu(dir, &scene_imu(scene, frames))?;
+    crate::io::write_transforms(
+        &dir.join("calib"),
+        &crate::io::Transforms {
+            radar: scene.rig.radar.clone(),
+            imu: scene.rig.imu.clone(),
+        },
+    )
 }
 
 /// Simulate frames `0..frames` of `scene` as seen by `sensor`.

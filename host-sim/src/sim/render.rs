@@ -8,8 +8,9 @@
 //!
 //! plus complex white Gaussian noise, rounded half away from zero and clipped to int16. `R_s`,
 //! `μ_s = −u_y` and `ν_s = u_z` are taken at the start of the chirp, `τ = k·T_loop + t·Tc`,
-//! from `P_s + V_s·τ`: range migration, Doppler and the TDM-MIMO slot offset are all in the
-//! data. `λ = c / f_c` with `f_c = f_start + S·(N/fs)/2` and `κ = π·f_c / F_design`.
+//! from `P_s + V_s·τ + A_s·τ²/2` (the second-order expansion of the rig's motion at the frame
+//! start: the radar pose is followed chirp by chirp, turns and accelerations included): range
+//! migration, Doppler and the TDM-MIMO slot offset are all in the data. `λ = c / f_c` with `f_c = f_start + S·(N/fs)/2` and `κ = π·f_c / F_design`.
 //!
 //! Method: per chirp and RX the samples are a sum of complex exponentials
 //! `Σ_s c_s·exp(j·ω_s·n)`, computed by a non-uniform FFT (kernel spreading onto a 2×
@@ -32,13 +33,19 @@ use crate::frame::AdcFrame;
 use crate::sensor::SensorConfig;
 use dbe_radar::config::SPEED_OF_LIGHT;
 
-/// One point scatterer, moving on a straight line during the frame.
+/// One point scatterer, moving relative to the radar on a parabola during the frame:
+/// `p(τ) = position + velocity·τ + acceleration·τ²/2`, τ from the frame start.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Scatterer {
     /// Position in the radar frame at the frame start (x forward, y left, z up), m.
     pub position: [f64; 3],
     /// Velocity relative to the radar, in the radar frame, m/s.
     pub velocity: [f64; 3],
+    /// Acceleration relative to the radar, in the radar frame, m/s² (the second-order term of
+    /// the motion within the frame: a turning or accelerating rig; 0 for straight motion at
+    /// constant velocity).
+    #[serde(default)]
+    pub acceleration: [f64; 3],
     /// Amplitude of the complex ADC sample, LSB per sample (the modulus `A`).
     pub amplitude: f64,
     /// Phase `φ0` of the scatterer, rad.
@@ -354,11 +361,10 @@ impl Scratch {
 
     /// Spread scatterer `s` for the chirp of TX slot `t` starting at `tau`.
     fn spread(&mut self, nufft: &Nufft, c: &Constants, t: usize, tau: f64, s: &Scatterer) {
-        let p = [
-            s.position[0] + s.velocity[0] * tau,
-            s.position[1] + s.velocity[1] * tau,
-            s.position[2] + s.velocity[2] * tau,
-        ];
+        let half_tau2 = 0.5 * tau * tau;
+        let p: [f64; 3] = std::array::from_fn(|i| {
+            s.position[i] + s.velocity[i] * tau + s.acceleration[i] * half_tau2
+        });
         let range = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
         if range < 1e-6 {
             return;

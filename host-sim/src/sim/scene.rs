@@ -46,6 +46,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+pub use super::imu::ImuSpec;
+pub use super::trajectory::{Interpolation, Mount, Pose, Trajectory, Waypoint};
 use super::SimError;
 
 /// A scene: everything needed to simulate a sequence for a given sensor.
@@ -79,9 +81,15 @@ pub struct Scene {
     /// What the radar sees.
     #[serde(default)]
     pub field_of_view: FieldOfView,
-    /// How the sensor moves.
+    /// How the rig's base frame moves (the radar's, unless `rig.radar` mounts it elsewhere).
     #[serde(default)]
     pub sensor: Trajectory,
+    /// Where the radar and the IMU sit on the rig.
+    #[serde(default, skip_serializing_if = "Rig::is_default")]
+    pub rig: Rig,
+    /// The simulated IMU.
+    #[serde(default)]
+    pub imu: ImuSpec,
     /// The objects, in `[[objects]]` tables; an object's id is its index here.
     #[serde(default)]
     pub objects: Vec<Object>,
@@ -101,6 +109,25 @@ fn default_truth_spacing() -> f64 {
 }
 fn default_true() -> bool {
     true
+}
+
+/// The sensors' mounts on the rig (ColoRadar's `calib/transforms/base_to_*.txt`); both
+/// default to the base frame itself.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rig {
+    /// The radar (`base_to_single_chip.txt`).
+    #[serde(default)]
+    pub radar: Mount,
+    /// The IMU (`base_to_imu.txt`).
+    #[serde(default)]
+    pub imu: Mount,
+}
+
+impl Rig {
+    fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
 }
 
 /// The visible region, in the radar frame at the frame start.
@@ -138,101 +165,6 @@ impl Default for FieldOfView {
             elevation_deg: default_fov_el(),
             min_range_m: default_min_range(),
             max_range_m: None,
-        }
-    }
-}
-
-/// Sensor trajectory in the world frame.
-///
-/// Either `waypoints` (linear interpolation of position and yaw between them, held before the
-/// first and after the last), or a start pose (`position`, `yaw_deg`) moving with a constant
-/// world-frame `velocity` and `yaw_rate_deg_s`; all default to zero (a static sensor at the
-/// origin). The sensor is level: yaw only, no pitch or roll.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Trajectory {
-    /// Start position, m.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub position: Option<[f64; 3]>,
-    /// Constant velocity in the world frame, m/s.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub velocity: Option<[f64; 3]>,
-    /// Start yaw (rotation about z, counter-clockwise from the world x axis), degrees.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub yaw_deg: Option<f64>,
-    /// Constant yaw rate, degrees per second.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub yaw_rate_deg_s: Option<f64>,
-    /// Timed poses, strictly increasing in time.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub waypoints: Vec<Waypoint>,
-}
-
-/// One timed sensor pose.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Waypoint {
-    /// Time, s.
-    pub time_s: f64,
-    /// Position, m.
-    pub position: [f64; 3],
-    /// Yaw, degrees.
-    #[serde(default)]
-    pub yaw_deg: f64,
-}
-
-/// The sensor's state at one instant.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Pose {
-    /// Position in the world frame, m.
-    pub position: [f64; 3],
-    /// Yaw, rad.
-    pub yaw_rad: f64,
-    /// Velocity in the world frame, m/s.
-    pub velocity: [f64; 3],
-    /// Yaw rate, rad/s.
-    pub yaw_rate_rad_s: f64,
-}
-
-impl Trajectory {
-    /// The sensor pose at time `t` (s).
-    pub fn pose(&self, t: f64) -> Pose {
-        if let (Some(first), Some(last)) = (self.waypoints.first(), self.waypoints.last()) {
-            let held = |w: &Waypoint| Pose {
-                position: w.position,
-                yaw_rad: w.yaw_deg.to_radians(),
-                velocity: [0.0; 3],
-                yaw_rate_rad_s: 0.0,
-            };
-            if t < first.time_s {
-                return held(first);
-            }
-            for pair in self.waypoints.windows(2) {
-                let (a, b) = (&pair[0], &pair[1]);
-                if t >= a.time_s && t < b.time_s {
-                    let dt = b.time_s - a.time_s;
-                    let f = (t - a.time_s) / dt;
-                    let v = std::array::from_fn(|i| (b.position[i] - a.position[i]) / dt);
-                    return Pose {
-                        position: std::array::from_fn(|i| {
-                            a.position[i] + f * (b.position[i] - a.position[i])
-                        }),
-                        yaw_rad: (a.yaw_deg + f * (b.yaw_deg - a.yaw_deg)).to_radians(),
-                        velocity: v,
-                        yaw_rate_rad_s: ((b.yaw_deg - a.yaw_deg) / dt).to_radians(),
-                    };
-                }
-            }
-            return held(last);
-        }
-        let p0 = self.position.unwrap_or_default();
-        let v = self.velocity.unwrap_or_default();
-        let rate = self.yaw_rate_deg_s.unwrap_or_default().to_radians();
-        Pose {
-            position: std::array::from_fn(|i| p0[i] + v[i] * t),
-            yaw_rad: self.yaw_deg.unwrap_or_default().to_radians() + rate * t,
-            velocity: v,
-            yaw_rate_rad_s: rate,
         }
     }
 }
@@ -543,6 +475,9 @@ impl Scene {
             }
         }
         self.validate_trajectory()?;
+        self.rig.radar.validate("rig.radar")?;
+        self.rig.imu.validate("rig.imu")?;
+        self.imu.validate()?;
         let mut names = std::collections::HashSet::new();
         let (mut scatterers, mut truth) = (0.0, 0.0);
         for (id, object) in self.objects.iter().enumerate() {
@@ -604,6 +539,13 @@ impl Scene {
             finite(&format!("sensor.waypoints[{i}].time_s"), w.time_s)?;
             finite3(&format!("sensor.waypoints[{i}].position"), w.position)?;
             finite(&format!("sensor.waypoints[{i}].yaw_deg"), w.yaw_deg)?;
+            in_range(
+                &format!("sensor.waypoints[{i}].pitch_deg"),
+                w.pitch_deg.abs(),
+                -1.0,
+                89.0,
+            )?;
+            finite(&format!("sensor.waypoints[{i}].roll_deg"), w.roll_deg)?;
             if i > 0 && w.time_s <= s.waypoints[i - 1].time_s {
                 return Err(format!(
                     "sensor.waypoints[{i}].time_s ({}) must be later than the previous \
@@ -738,6 +680,8 @@ impl Scene {
                 velocity: Some([1.2, 0.0, 0.0]),
                 ..Trajectory::default()
             },
+            rig: Rig::default(),
+            imu: ImuSpec::default(),
             objects: vec![
                 corner("corner_4m", [4.0, 0.8, 0.0], 10.0),
                 corner("corner_7m_right_up", [7.0, -2.5, 1.0], 20.0),

@@ -4,7 +4,9 @@
 //!
 //! - `frame_<i>.json`: one [`FrameTruth`] per frame (JSON object, fields as documented here);
 //! - `groundtruth_poses.txt`: one line per frame, `x y z qx qy qz qw` (world position of the
-//!   radar, m, and its orientation as a unit quaternion), the layout of ColoRadar's file;
+//!   rig's base frame, m, and its orientation as a unit quaternion, base → world), the layout
+//!   and meaning of ColoRadar's file (the radar sits at `calib/transforms/base_to_single_chip.txt`
+//!   on the base; in scenes without a `[rig]` the two are the same);
 //! - `timestamps.txt`: one line per frame, the frame start time in seconds.
 
 use std::fs;
@@ -14,6 +16,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use super::scene::{ObjectKind, Pose};
+use super::trajectory::xyzw;
 use super::SimFrame;
 
 /// Ground truth of one frame.
@@ -23,38 +26,43 @@ pub struct FrameTruth {
     pub index: usize,
     /// Start time of the frame, s.
     pub time_s: f64,
-    /// Sensor pose at the frame start.
+    /// Radar pose at the frame start.
     pub sensor: SensorPose,
+    /// The rig's base-frame pose at the frame start (equal to `sensor` without a `[rig]`).
+    pub base: SensorPose,
     /// Scatterers rendered into the frame.
     pub scatterers: usize,
     /// Every object of the scene, visible or not, in scene order.
     pub objects: Vec<ObjectTruth>,
 }
 
-/// Sensor (radar frame) pose in the world frame.
+/// Pose of a sensor or of the rig's base in the world frame.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SensorPose {
     /// Position, m.
     pub position: [f64; 3],
-    /// Orientation as a unit quaternion `[qx, qy, qz, qw]` (radar → world).
+    /// Orientation as a unit quaternion `[qx, qy, qz, qw]` (body → world).
     pub orientation: [f64; 4],
     /// Yaw, degrees.
     pub yaw_deg: f64,
     /// Velocity in the world frame, m/s.
     pub velocity: [f64; 3],
-    /// Yaw rate, degrees per second.
+    /// Yaw rate (world z component of the angular velocity), degrees per second.
     pub yaw_rate_deg_s: f64,
+    /// Angular velocity in the body frame, rad/s.
+    #[serde(default)]
+    pub angular_velocity: [f64; 3],
 }
 
 impl From<Pose> for SensorPose {
     fn from(p: Pose) -> Self {
-        let (s, c) = (0.5 * p.yaw_rad).sin_cos();
         Self {
-            position: p.position,
-            orientation: [0.0, 0.0, s, c],
-            yaw_deg: p.yaw_rad.to_degrees(),
-            velocity: p.velocity,
-            yaw_rate_deg_s: p.yaw_rate_rad_s.to_degrees(),
+            position: p.position.into(),
+            orientation: xyzw(&p.rotation),
+            yaw_deg: p.yaw_rad().to_degrees(),
+            velocity: p.velocity.into(),
+            yaw_rate_deg_s: p.angular_velocity_world().z.to_degrees(),
+            angular_velocity: p.angular_velocity.into(),
         }
     }
 }
@@ -160,7 +168,7 @@ pub fn write_truth(dir: &Path, frames: &[SimFrame]) -> io::Result<()> {
         let mut w = BufWriter::new(file);
         serde_json::to_writer(&mut w, &f.truth).map_err(|e| with_path(&path, e.into()))?;
         w.flush().map_err(|e| with_path(&path, e))?;
-        let s = &f.truth.sensor;
+        let s = &f.truth.base;
         let [x, y, z] = s.position;
         let [qx, qy, qz, qw] = s.orientation;
         poses.push_str(&format!("{x} {y} {z} {qx} {qy} {qz} {qw}\n"));

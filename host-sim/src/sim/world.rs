@@ -3,6 +3,7 @@
 
 use std::f64::consts::TAU;
 
+use nalgebra::Vector3;
 use rand::{rngs::StdRng, Rng, SeedableRng};
 
 use super::render::{mix, Scatterer};
@@ -264,10 +265,9 @@ const OCCLUSION_MARGIN_M: f64 = 1e-3;
 
 /// The world seen from one sensor pose at one instant.
 pub(crate) struct View<'a> {
+    /// The radar's kinematic state.
     pub pose: Pose,
     pub time_s: f64,
-    cos: f64,
-    sin: f64,
     min_range: f64,
     max_range: f64,
     sin_az: f64,
@@ -285,12 +285,9 @@ impl<'a> View<'a> {
         occlusion: bool,
         objects: &'a [Prepared],
     ) -> Self {
-        let (sin, cos) = pose.yaw_rad.sin_cos();
         Self {
             pose,
             time_s,
-            cos,
-            sin,
             min_range: fov.min_range_m,
             max_range,
             sin_az: fov.azimuth_deg.to_radians().sin(),
@@ -302,24 +299,18 @@ impl<'a> View<'a> {
 
     /// World point → radar frame.
     pub(crate) fn to_radar(&self, w: [f64; 3]) -> [f64; 3] {
-        let d = sub(w, self.pose.position);
-        [
-            self.cos * d[0] + self.sin * d[1],
-            -self.sin * d[0] + self.cos * d[1],
-            d[2],
-        ]
+        self.pose.to_body(Vector3::from(w)).into()
     }
 
-    /// World velocity of a point at radar-frame position `p` → velocity relative to the radar
-    /// in the radar frame: `Rᵀ·(v − v_sensor) − ω × p`.
-    pub(crate) fn relative_velocity(&self, v: [f64; 3], p: [f64; 3]) -> [f64; 3] {
-        let d = sub(v, self.pose.velocity);
-        let w = self.pose.yaw_rate_rad_s;
-        [
-            self.cos * d[0] + self.sin * d[1] + w * p[1],
-            -self.sin * d[0] + self.cos * d[1] - w * p[0],
-            d[2],
-        ]
+    /// World velocity `v` of a point at radar-frame position `p` → its velocity and
+    /// acceleration relative to the radar, in the radar frame ([`Pose::relative_velocity`],
+    /// [`Pose::relative_acceleration`]).
+    pub(crate) fn relative_motion(&self, v: [f64; 3], p: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+        let (v, p) = (Vector3::from(v), Vector3::from(p));
+        (
+            self.pose.relative_velocity(v, p).into(),
+            self.pose.relative_acceleration(v, p).into(),
+        )
     }
 
     /// Whether radar-frame point `p` is inside the field of view.
@@ -338,7 +329,7 @@ impl<'a> View<'a> {
         if !self.occlusion {
             return false;
         }
-        let s = self.pose.position;
+        let s: [f64; 3] = self.pose.position.into();
         let d = sub(w, s);
         let len = norm(d);
         if len <= OCCLUSION_MARGIN_M {
@@ -356,7 +347,7 @@ impl<'a> View<'a> {
     /// Cosine of the incidence angle at a surface sample now at world position `w`, or
     /// `None` when the sample faces away.
     fn incidence(&self, w: [f64; 3], n: [f64; 3], two_sided: bool) -> Option<f64> {
-        let to_radar = sub(self.pose.position, w);
+        let to_radar = sub(self.pose.position.into(), w);
         let c = dot(n, to_radar) / norm(to_radar);
         let c = if two_sided { c.abs() } else { c };
         (c > 0.0).then_some(c)
@@ -373,7 +364,7 @@ impl<'a> View<'a> {
         let off = o.velocity.map(|v| v * self.time_s);
         let center_w = add(o.center, off);
         let center = self.to_radar(center_w);
-        let velocity = self.relative_velocity(o.velocity, center);
+        let (velocity, acceleration) = self.relative_motion(o.velocity, center);
         let before = out.len();
         let mut surface_points = Vec::new();
         let visible;
@@ -384,6 +375,7 @@ impl<'a> View<'a> {
                 out.push(Scatterer {
                     position: center,
                     velocity,
+                    acceleration,
                     amplitude: point.amplitude.unwrap_or_else(|| {
                         radar_constant * point.rcs_m2.unwrap_or(0.0).sqrt() / r2
                     }),
@@ -409,9 +401,11 @@ impl<'a> View<'a> {
                     continue;
                 }
                 let sigma = params.reflectivity * s.area * c.powf(params.incidence_exponent);
+                let (velocity, acceleration) = self.relative_motion(o.velocity, p);
                 out.push(Scatterer {
                     position: p,
-                    velocity: self.relative_velocity(o.velocity, p),
+                    velocity,
+                    acceleration,
                     amplitude: radar_constant * sigma.sqrt() / dot(p, p),
                     phase: s.phase,
                 });

@@ -1,0 +1,381 @@
+//! Radar-inertial odometry: an error-state EKF driven by the IMU and corrected by the radar's
+//! ego-velocity (Doer & Trommer 2020, "An EKF based approach to radar inertial odometry").
+//!
+//! ```text
+//! nominal state   p, v (world), q (IMU → world), b_a, b_g
+//! error state     δp, δv, δθ (IMU frame), δb_a, δb_g                 15 values
+//! propagation     a = R·(f − b_a) + g,  p += v·dt + a·dt²/2,  v += a·dt,  q ← q ⊗ Exp((ω − b_g)·dt)
+//!                 (IMU samples averaged over each interval)
+//! radar update    v_radar = R_irᵀ·(Rᵀ·v + (ω − b_g) × l_ir)           ω × l: the lever arm
+//!                 H = [0, R_irᵀRᵀ, R_irᵀ[Rᵀv]×, 0, R_irᵀ[l_ir]×],  χ² gate on the innovation
+//! initialisation  the first `init_standstill_s` of IMU data at rest: roll and pitch from the
+//!                 mean specific force, gyro bias from the mean rate, yaw 0, p = v = 0
+//! ```
+//!
+//! `R_ir`, `l_ir` place the radar in the IMU frame (from the base → sensor transforms). The
+//! world frame is gravity-aligned (z up) with the IMU's initial yaw as its x axis. The radar
+//! measurement is the velocity at the frame's mean chirp time; the covariance is the
+//! estimator's. Frames whose estimate is not `ok` or `standstill` give no update.
+
+use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
+
+use crate::sim::imu::{ImuSample, GRAVITY_MPS2};
+use crate::sim::trajectory::Mount;
+
+type Mat15 = SMatrix<f64, 15, 15>;
+type Mat3x15 = SMatrix<f64, 3, 15>;
+
+/// Largest gyroscope turn-on bias taken for one at initialisation, rad/s (3°/s).
+pub const MAX_GYRO_BIAS: f64 = 0.05;
+
+/// The 0.999 quantile of χ² with 3 degrees of freedom: the default innovation gate.
+pub const CHI2_3DOF_999: f64 = 16.266;
+
+/// Parameters of the filter. The IMU densities are the usual four (Kalibr / `imu_utils`
+/// units); the defaults are those of the simulated IMU ([`crate::sim::imu::ImuSpec`]) inflated
+/// by 2, so they hold for a real MEMS IMU of that class too.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EkfParams {
+    /// Accelerometer white-noise density, m/s²/√Hz.
+    pub accel_noise: f64,
+    /// Gyroscope white-noise density, rad/s/√Hz.
+    pub gyro_noise: f64,
+    /// Accelerometer bias random walk, m/s³/√Hz.
+    pub accel_bias_walk: f64,
+    /// Gyroscope bias random walk, rad/s²/√Hz.
+    pub gyro_bias_walk: f64,
+    /// Length of the standstill at the start used to initialise, s.
+    pub init_standstill_s: f64,
+    /// Initial standard deviation of the accelerometer bias, m/s².
+    pub init_accel_bias_sigma: f64,
+    /// Initial standard deviation of the gyroscope bias (after the standstill mean), rad/s.
+    pub init_gyro_bias_sigma: f64,
+    /// Initial standard deviation of roll and pitch, rad.
+    pub init_tilt_sigma: f64,
+    /// Innovation gate: updates whose squared Mahalanobis distance exceeds it are rejected.
+    pub chi2_gate: f64,
+    /// Standard deviation added to each axis of the radar velocity's covariance, m/s.
+    pub velocity_sigma_floor: f64,
+}
+
+impl Default for EkfParams {
+    fn default() -> Self {
+        Self {
+            accel_noise: 4.0e-3,
+            gyro_noise: 3.4e-4,
+            accel_bias_walk: 6.0e-4,
+            gyro_bias_walk: 4.0e-5,
+            init_standstill_s: 1.0,
+            init_accel_bias_sigma: 0.05,
+            init_gyro_bias_sigma: 2.0e-3,
+            init_tilt_sigma: 1.0_f64.to_radians(),
+            chi2_gate: CHI2_3DOF_999,
+            velocity_sigma_floor: 0.0,
+        }
+    }
+}
+
+/// Why the filter could not run.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum EkfError {
+    /// Not enough IMU data for the initial standstill.
+    #[error("the IMU data span {span_s:.3} s; initialisation needs a standstill of {needed_s} s at the start")]
+    TooShort {
+        /// Time covered by the samples, s.
+        span_s: f64,
+        /// `init_standstill_s`.
+        needed_s: f64,
+    },
+    /// The rig is not at rest during the initialisation window.
+    #[error("the rig moves during the first {window_s} s (mean specific force {force:.3} m/s², gyro spread {gyro_spread:.4} rad/s, mean rate {mean_rate:.4} rad/s); initialisation needs it at rest")]
+    NotAtRest {
+        /// Largest |mean gyro| axis, rad/s.
+        mean_rate: f64,
+        /// The window, s.
+        window_s: f64,
+        /// |mean specific force|, m/s² (≈ 9.81 at rest).
+        force: f64,
+        /// Largest deviation of a gyro sample from the mean, rad/s.
+        gyro_spread: f64,
+    },
+    /// IMU timestamps go backwards or repeat.
+    #[error("IMU sample {index} at {time_s} s does not follow the previous one")]
+    Time {
+        /// The sample.
+        index: usize,
+        /// Its time, s.
+        time_s: f64,
+    },
+}
+
+/// One radar velocity measurement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RadarVelocity {
+    /// Time the velocity refers to (mean chirp time of the frame), s.
+    pub time_s: f64,
+    /// Radar velocity in the radar frame, m/s.
+    pub velocity: Vector3<f64>,
+    /// Its covariance, (m/s)².
+    pub covariance: Matrix3<f64>,
+}
+
+/// The filter's estimate at one instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct State {
+    /// Time, s.
+    pub time_s: f64,
+    /// IMU position in the world, m.
+    pub position: Vector3<f64>,
+    /// IMU velocity in the world, m/s.
+    pub velocity: Vector3<f64>,
+    /// IMU → world.
+    pub attitude: UnitQuaternion<f64>,
+    /// Accelerometer bias, m/s².
+    pub accel_bias: Vector3<f64>,
+    /// Gyroscope bias, rad/s.
+    pub gyro_bias: Vector3<f64>,
+}
+
+/// What an update did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UpdateOutcome {
+    /// Applied.
+    Applied,
+    /// Rejected by the χ² gate.
+    Gated,
+}
+
+fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
+}
+
+/// The error-state EKF (module docs).
+#[derive(Clone, Debug)]
+pub struct Ekf {
+    params: EkfParams,
+    state: State,
+    cov: Mat15,
+    /// The last IMU sample (the propagation's left end).
+    last: ImuSample,
+    /// Radar in the IMU frame: rotation radar → IMU and position.
+    r_ir: Matrix3<f64>,
+    l_ir: Vector3<f64>,
+    gravity: Vector3<f64>,
+}
+
+impl Ekf {
+    /// Initialise from the standstill at the start of `imu`; `radar` and `imu_mount` are the
+    /// sensors' mounts on the base. Returns the filter at the end of the window and the index
+    /// of the first sample after it.
+    pub fn initialise(
+        params: EkfParams,
+        imu: &[ImuSample],
+        radar: &Mount,
+        imu_mount: &Mount,
+    ) -> Result<(Self, usize), EkfError> {
+        for (i, w) in imu.windows(2).enumerate() {
+            if !(w[1].time_s > w[0].time_s) {
+                return Err(EkfError::Time {
+                    index: i + 1,
+                    time_s: w[1].time_s,
+                });
+            }
+        }
+        let span_s = match (imu.first(), imu.last()) {
+            (Some(a), Some(b)) => b.time_s - a.time_s,
+            _ => 0.0,
+        };
+        if span_s < params.init_standstill_s || imu.len() < 2 {
+            return Err(EkfError::TooShort {
+                span_s,
+                needed_s: params.init_standstill_s,
+            });
+        }
+        let t0 = imu[0].time_s;
+        let end = imu
+            .iter()
+            .position(|s| s.time_s - t0 > params.init_standstill_s)
+            .unwrap_or(imu.len());
+        let window = &imu[..end];
+        let n = window.len() as f64;
+        let f_mean: Vector3<f64> = window.iter().map(|s| s.accel).sum::<Vector3<f64>>() / n;
+        let w_mean: Vector3<f64> = window.iter().map(|s| s.gyro).sum::<Vector3<f64>>() / n;
+        let gyro_spread = window
+            .iter()
+            .map(|s| (s.gyro - w_mean).amax())
+            .fold(0.0, f64::max);
+        let force = f_mean.norm();
+        // At rest |f| = g; a walking or turning rig shows in the force, in the gyro spread, or
+        // (turning steadily) in a mean rate no MEMS bias reaches (3°/s).
+        if (force - GRAVITY_MPS2).abs() > 0.5 || gyro_spread > 0.1 || w_mean.amax() > MAX_GYRO_BIAS
+        {
+            return Err(EkfError::NotAtRest {
+                mean_rate: w_mean.amax(),
+                window_s: params.init_standstill_s,
+                force,
+                gyro_spread,
+            });
+        }
+        // Attitude that maps the measured "up" (the specific force at rest) onto world z; the
+        // bias along it is the excess of |f| over g.
+        let attitude =
+            UnitQuaternion::rotation_between(&f_mean, &Vector3::z()).unwrap_or_else(|| {
+                UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+            });
+        let accel_bias = f_mean * ((force - GRAVITY_MPS2) / force);
+        let mut cov = Mat15::zeros();
+        let tilt = params.init_tilt_sigma.powi(2);
+        cov[(6, 6)] = tilt;
+        cov[(7, 7)] = tilt;
+        cov[(8, 8)] = 1e-12; // yaw is the world frame's definition
+        for i in 9..12 {
+            cov[(i, i)] = params.init_accel_bias_sigma.powi(2);
+        }
+        for i in 12..15 {
+            cov[(i, i)] = params.init_gyro_bias_sigma.powi(2);
+        }
+        for i in 0..6 {
+            cov[(i, i)] = 1e-8;
+        }
+        let r_bi = imu_mount.rotation().into_inner();
+        let r_ir = r_bi.transpose() * radar.rotation().into_inner();
+        let l_ir = r_bi.transpose() * (radar.translation() - imu_mount.translation());
+        let last = window[window.len() - 1];
+        Ok((
+            Self {
+                params,
+                state: State {
+                    time_s: last.time_s,
+                    position: Vector3::zeros(),
+                    velocity: Vector3::zeros(),
+                    attitude,
+                    accel_bias,
+                    gyro_bias: w_mean,
+                },
+                cov,
+                last,
+                r_ir,
+                l_ir,
+                gravity: Vector3::new(0.0, 0.0, -GRAVITY_MPS2),
+            },
+            end,
+        ))
+    }
+
+    /// The current estimate.
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// The error-state covariance (order δp, δv, δθ, δb_a, δb_g).
+    pub fn covariance(&self) -> &Mat15 {
+        &self.cov
+    }
+
+    /// Propagate with the next IMU sample (its time must be later than the last one's).
+    pub fn propagate(&mut self, next: &ImuSample) {
+        let dt = next.time_s - self.last.time_s;
+        if dt > 0.0 {
+            let mid = ImuSample {
+                time_s: next.time_s,
+                accel: 0.5 * (self.last.accel + next.accel),
+                gyro: 0.5 * (self.last.gyro + next.gyro),
+            };
+            self.step(&mid, dt);
+        }
+        self.last = *next;
+    }
+
+    /// Propagate to `time_s` (between the last sample and `next`), interpolating the IMU; the
+    /// last sample becomes the interpolated one.
+    pub fn propagate_to(&mut self, time_s: f64, next: &ImuSample) {
+        let span = next.time_s - self.last.time_s;
+        if !(time_s > self.last.time_s) || !(span > 0.0) {
+            return;
+        }
+        let f = ((time_s - self.last.time_s) / span).min(1.0);
+        let at = ImuSample {
+            time_s,
+            accel: self.last.accel + f * (next.accel - self.last.accel),
+            gyro: self.last.gyro + f * (next.gyro - self.last.gyro),
+        };
+        self.propagate(&at);
+    }
+
+    fn step(&mut self, m: &ImuSample, dt: f64) {
+        let s = &mut self.state;
+        let r = s.attitude.to_rotation_matrix().into_inner();
+        let f = m.accel - s.accel_bias;
+        let w = m.gyro - s.gyro_bias;
+        let a = r * f + self.gravity;
+        s.position += s.velocity * dt + 0.5 * a * dt * dt;
+        s.velocity += a * dt;
+        let dq = UnitQuaternion::from_scaled_axis(w * dt);
+        s.attitude *= dq;
+        s.time_s = m.time_s;
+
+        let mut fm = Mat15::identity();
+        let i3 = Matrix3::identity();
+        fm.fixed_view_mut::<3, 3>(0, 3).copy_from(&(i3 * dt));
+        fm.fixed_view_mut::<3, 3>(3, 6)
+            .copy_from(&(-r * skew(&f) * dt));
+        fm.fixed_view_mut::<3, 3>(3, 9).copy_from(&(-r * dt));
+        fm.fixed_view_mut::<3, 3>(6, 6)
+            .copy_from(&dq.to_rotation_matrix().into_inner().transpose());
+        fm.fixed_view_mut::<3, 3>(6, 12).copy_from(&(-i3 * dt));
+        let p = &self.params;
+        let mut q = Mat15::zeros();
+        for i in 0..3 {
+            q[(3 + i, 3 + i)] = p.accel_noise.powi(2) * dt;
+            q[(6 + i, 6 + i)] = p.gyro_noise.powi(2) * dt;
+            q[(9 + i, 9 + i)] = p.accel_bias_walk.powi(2) * dt;
+            q[(12 + i, 12 + i)] = p.gyro_bias_walk.powi(2) * dt;
+        }
+        self.cov = fm * self.cov * fm.transpose() + q;
+    }
+
+    /// The radar velocity the current state predicts, and its Jacobian.
+    fn predict_radar(&self) -> (Vector3<f64>, Mat3x15) {
+        let s = &self.state;
+        let rt = s.attitude.to_rotation_matrix().into_inner().transpose();
+        let w = self.last.gyro - s.gyro_bias;
+        let v_body = rt * s.velocity;
+        let rit = self.r_ir.transpose();
+        let h = rit * (v_body + w.cross(&self.l_ir));
+        let mut jac = Mat3x15::zeros();
+        jac.fixed_view_mut::<3, 3>(0, 3).copy_from(&(rit * rt));
+        jac.fixed_view_mut::<3, 3>(0, 6)
+            .copy_from(&(rit * skew(&v_body)));
+        jac.fixed_view_mut::<3, 3>(0, 12)
+            .copy_from(&(rit * skew(&self.l_ir)));
+        (h, jac)
+    }
+
+    /// Correct with a radar velocity measured now (call [`Self::propagate_to`] first).
+    pub fn update(&mut self, z: &RadarVelocity) -> UpdateOutcome {
+        let (h, jac) = self.predict_radar();
+        let floor = self.params.velocity_sigma_floor.powi(2);
+        let r = z.covariance + Matrix3::identity() * floor;
+        let innovation = z.velocity - h;
+        let s = jac * self.cov * jac.transpose() + r;
+        let Some(s_inv) = s.try_inverse() else {
+            return UpdateOutcome::Gated;
+        };
+        let d2 = (innovation.transpose() * s_inv * innovation)[(0, 0)];
+        if !(d2 <= self.params.chi2_gate) {
+            return UpdateOutcome::Gated;
+        }
+        let k = self.cov * jac.transpose() * s_inv;
+        let dx: SVector<f64, 15> = k * innovation;
+        let ikh = Mat15::identity() - k * jac;
+        self.cov = ikh * self.cov * ikh.transpose() + k * r * k.transpose();
+        self.cov = 0.5 * (self.cov + self.cov.transpose());
+        let st = &mut self.state;
+        st.position += dx.fixed_rows::<3>(0);
+        st.velocity += dx.fixed_rows::<3>(3);
+        st.attitude *= UnitQuaternion::from_scaled_axis(dx.fixed_rows::<3>(6).into_owned());
+        st.accel_bias += dx.fixed_rows::<3>(9);
+        st.gyro_bias += dx.fixed_rows::<3>(12);
+        UpdateOutcome::Applied
+    }
+}

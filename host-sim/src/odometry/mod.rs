@@ -1,0 +1,226 @@
+//! Radar-inertial odometry on the host: the core's per-frame ego-velocity fed to an
+//! error-state EKF with the IMU, and the trajectory's errors against ground truth.
+//!
+//! ```text
+//! frame points ──▶ dbe_radar::EgoEstimator ──▶ FrameVelocity (radar frame, mean chirp time)
+//! IMU samples  ──▶ ekf::Ekf::propagate ─┐
+//!                                       ├──▶ base pose at every frame time ──▶ metrics::evaluate
+//! FrameVelocity ─▶ ekf::Ekf::update ────┘
+//! ```
+//!
+//! - [`ekf`]: the filter (IMU propagation, radar ego-velocity update with the lever arm, χ²
+//!   gate, standstill initialisation).
+//! - [`metrics`]: association, 4-DoF alignment, ATE, relative errors, end-point drift.
+//! - [`run`]: the whole sequence; [`ego_truth`]: the radar velocity the ground truth implies.
+//!
+//! The same [`ekf::EkfParams`] serve whichever chain made the points.
+
+pub mod ekf;
+pub mod metrics;
+
+use std::fmt::Write as _;
+
+use dbe_radar::{EgoStatus, EgoVelocity};
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+
+use crate::io::{StampedPose, Transforms};
+use crate::sim::imu::ImuSample;
+use crate::sim::trajectory::Mount;
+use ekf::{Ekf, EkfError, EkfParams, RadarVelocity, UpdateOutcome};
+
+/// The ego-velocity of one radar frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameVelocity {
+    /// The frame's timestamp, s (the trajectory is written at these times).
+    pub frame_time_s: f64,
+    /// The time the velocity refers to: the frame's mean chirp time, s.
+    pub measure_time_s: f64,
+    /// Points of the frame.
+    pub points: usize,
+    /// The core's estimate.
+    pub ego: EgoVelocity,
+}
+
+impl FrameVelocity {
+    /// The measurement the filter takes, if the estimate is usable (`ok` or `standstill`).
+    pub fn measurement(&self) -> Option<RadarVelocity> {
+        matches!(self.ego.status, EgoStatus::Ok | EgoStatus::Standstill).then(|| {
+            let v = self.ego.velocity;
+            let c = self.ego.covariance;
+            RadarVelocity {
+                time_s: self.measure_time_s,
+                velocity: Vector3::new(f64::from(v.x), f64::from(v.y), f64::from(v.z)),
+                covariance: Matrix3::from_fn(|r, k| f64::from(c[r][k])),
+            }
+        })
+    }
+}
+
+/// What the filter did over a sequence.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct UpdateCounts {
+    /// Radar updates applied.
+    pub applied: usize,
+    /// Radar updates rejected by the χ² gate.
+    pub gated: usize,
+    /// Frames without a usable estimate (too few points, ill-conditioned).
+    pub no_estimate: usize,
+    /// Frames before the end of the initial standstill (no update).
+    pub during_init: usize,
+    /// Frames after the last IMU sample (not in the trajectory).
+    pub after_imu: usize,
+}
+
+/// The estimated trajectory of a sequence.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OdometryRun {
+    /// The base frame in the gravity-aligned world, one pose per frame time.
+    pub trajectory: Vec<StampedPose>,
+    /// What happened to the frames' measurements.
+    pub updates: UpdateCounts,
+}
+
+/// The base frame's pose from the IMU's: `R_wb = R_wi·R_biᵀ`, `p_wb = p_wi − R_wb·t_bi`.
+fn base_pose(
+    time_s: f64,
+    p_wi: Vector3<f64>,
+    q_wi: UnitQuaternion<f64>,
+    imu: &Mount,
+) -> StampedPose {
+    let q_bi = UnitQuaternion::from_rotation_matrix(&imu.rotation());
+    let q_wb = q_wi * q_bi.inverse();
+    StampedPose {
+        time_s,
+        position: p_wi - (q_wb * imu.translation()),
+        rotation: q_wb,
+    }
+}
+
+/// Run the filter over a sequence: `imu` in time order (starting with the standstill),
+/// `frames` in time order; the trajectory has one base pose per frame up to the last IMU
+/// sample.
+pub fn run(
+    params: &EkfParams,
+    imu: &[ImuSample],
+    frames: &[FrameVelocity],
+    transforms: &Transforms,
+) -> Result<OdometryRun, EkfError> {
+    let (mut ekf, mut next) =
+        Ekf::initialise(params.clone(), imu, &transforms.radar, &transforms.imu)?;
+    let init_end = ekf.state().time_s;
+    let mut updates = UpdateCounts::default();
+    let mut trajectory = Vec::with_capacity(frames.len());
+    let last_imu = imu.last().map_or(f64::NEG_INFINITY, |s| s.time_s);
+    let advance = |ekf: &mut Ekf, next: &mut usize, t: f64| {
+        while *next < imu.len() && imu[*next].time_s <= t {
+            ekf.propagate(&imu[*next]);
+            *next += 1;
+        }
+        if *next < imu.len() {
+            ekf.propagate_to(t, &imu[*next]);
+        }
+    };
+    for f in frames {
+        if f.frame_time_s > last_imu {
+            updates.after_imu += 1;
+            continue;
+        }
+        advance(&mut ekf, &mut next, f.frame_time_s);
+        let s = ekf.state();
+        trajectory.push(base_pose(
+            f.frame_time_s,
+            s.position,
+            s.attitude,
+            &transforms.imu,
+        ));
+        if f.measure_time_s <= init_end {
+            updates.during_init += 1;
+            continue;
+        }
+        let Some(z) = f.measurement() else {
+            updates.no_estimate += 1;
+            continue;
+        };
+        if z.time_s > last_imu {
+            updates.after_imu += 1;
+            continue;
+        }
+        advance(&mut ekf, &mut next, z.time_s);
+        match ekf.update(&z) {
+            UpdateOutcome::Applied => updates.applied += 1,
+            UpdateOutcome::Gated => updates.gated += 1,
+        }
+    }
+    Ok(OdometryRun {
+        trajectory,
+        updates,
+    })
+}
+
+/// The radar's velocity in its own frame at `t` that the ground-truth base poses imply
+/// (central differences over `h` s of the interpolated truth, the radar's lever arm included);
+/// `None` outside the truth's span.
+pub fn ego_truth(gt: &[StampedPose], radar: &Mount, t: f64, h: f64) -> Option<Vector3<f64>> {
+    let a = metrics::interpolate(gt, t - h)?;
+    let b = metrics::interpolate(gt, t + h)?;
+    let c = metrics::interpolate(gt, t)?;
+    let v_world = (b.position - a.position) / (2.0 * h);
+    let omega_body = (a.rotation.inverse() * b.rotation).scaled_axis() / (2.0 * h);
+    let r_wb = c.rotation.to_rotation_matrix();
+    let v_radar_world = v_world + r_wb * omega_body.cross(&radar.translation());
+    let r_wr: Rotation3<f64> = r_wb * radar.rotation();
+    Some(r_wr.inverse() * v_radar_world)
+}
+
+/// The median spacing of the truth's timestamps, s (a step for [`ego_truth`]).
+pub fn median_spacing(gt: &[StampedPose]) -> f64 {
+    let mut d: Vec<f64> = gt.windows(2).map(|w| w[1].time_s - w[0].time_s).collect();
+    d.retain(|x| *x > 0.0);
+    if d.is_empty() {
+        return 0.05;
+    }
+    d.sort_by(f64::total_cmp);
+    d[d.len() / 2]
+}
+
+/// A trajectory in the TUM format (`t tx ty tz qx qy qz qw` per line), as `evo` reads it.
+pub fn tum_text(trajectory: &[StampedPose]) -> String {
+    let mut s = String::from("# t tx ty tz qx qy qz qw\n");
+    for p in trajectory {
+        let q = p.rotation;
+        let _ = writeln!(
+            s,
+            "{:.6} {:.6} {:.6} {:.6} {:.9} {:.9} {:.9} {:.9}",
+            p.time_s, p.position.x, p.position.y, p.position.z, q.i, q.j, q.k, q.w
+        );
+    }
+    s
+}
+
+/// The header of `ego_velocity.csv`.
+pub const EGO_CSV_HEADER: &str = "t,vx,vy,vz,sigma_x,sigma_y,sigma_z,inliers,points,status";
+
+/// The frames' ego-velocities as CSV ([`EGO_CSV_HEADER`]; radar frame, m/s; σ the square roots
+/// of the covariance's diagonal; time the mean chirp time).
+pub fn ego_csv(frames: &[FrameVelocity]) -> String {
+    let mut s = format!("{EGO_CSV_HEADER}\n");
+    for f in frames {
+        let e = &f.ego;
+        let sd = |i: usize| f64::from(e.covariance[i][i]).max(0.0).sqrt();
+        let _ = writeln!(
+            s,
+            "{:.6},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{},{},{}",
+            f.measure_time_s,
+            e.velocity.x,
+            e.velocity.y,
+            e.velocity.z,
+            sd(0),
+            sd(1),
+            sd(2),
+            e.inliers,
+            e.points,
+            e.status
+        );
+    }
+    s
+}

@@ -1,0 +1,552 @@
+//! Radar-inertial odometry: the rig's 6-DoF motion and IMU in the simulator, the ColoRadar
+//! navigation files, the error-state EKF and the trajectory metrics, each against cases whose
+//! answer is known.
+
+use std::path::Path;
+
+use host_sim::io::{
+    load_transforms, navigation, read_groundtruth, read_imu, write_imu, write_transforms,
+    StampedPose, Transforms,
+};
+use host_sim::odometry::ekf::{Ekf, EkfParams, RadarVelocity, UpdateOutcome};
+use host_sim::odometry::{self, metrics, FrameVelocity};
+use host_sim::sim::imu::{simulate_imu, ImuSample, ImuSpec};
+use host_sim::sim::trajectory::{Interpolation, Mount, Trajectory, Waypoint};
+use host_sim::sim::{load_scene, Scene};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use rand::{rngs::StdRng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+fn hallways() -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/odometry/hallways.toml");
+    match load_scene(&path) {
+        Ok(s) => s,
+        Err(e) => panic!("{e}"),
+    }
+}
+
+fn waypoint(
+    time_s: f64,
+    position: [f64; 3],
+    yaw_deg: f64,
+    pitch_deg: f64,
+    roll_deg: f64,
+) -> Waypoint {
+    Waypoint {
+        time_s,
+        position,
+        yaw_deg,
+        pitch_deg,
+        roll_deg,
+    }
+}
+
+/// The truth as stamped poses of the base at `times`.
+fn truth_at(traj: &Trajectory, times: impl Iterator<Item = f64>) -> Vec<StampedPose> {
+    times
+        .map(|t| {
+            let p = traj.pose(t);
+            StampedPose {
+                time_s: t,
+                position: p.position,
+                rotation: UnitQuaternion::from_rotation_matrix(&p.rotation),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn spline_derivatives_match_finite_differences() {
+    // Velocity, acceleration and body angular velocity of the spline against central
+    // differences of its own positions and attitudes (h = 1 ms: the truncation error h²/6·|p'''|
+    // is below 1e-6 for these motions; the knots, where the acceleration jumps, are avoided).
+    let scene = hallways();
+    let traj = &scene.sensor;
+    let h = 1e-3;
+    for t in [3.3, 8.1, 13.7, 16.2, 20.5, 26.0, 34.9, 38.4] {
+        let p = traj.pose(t);
+        let (a, b) = (traj.pose(t - h), traj.pose(t + h));
+        let v = (b.position - a.position) / (2.0 * h);
+        let acc = (b.position - 2.0 * p.position + a.position) / (h * h);
+        let w = (a.rotation.inverse() * b.rotation).scaled_axis() / (2.0 * h);
+        assert!(
+            (v - p.velocity).norm() < 1e-5,
+            "t {t}: velocity {v} vs {}",
+            p.velocity
+        );
+        assert!(
+            (acc - p.acceleration).norm() < 1e-3,
+            "t {t}: accel {acc} vs {}",
+            p.acceleration
+        );
+        assert!(
+            (w - p.angular_velocity).norm() < 1e-5,
+            "t {t}: ω {w} vs {}",
+            p.angular_velocity
+        );
+        let dw = (b.angular_velocity - a.angular_velocity) / (2.0 * h);
+        assert!((dw - p.angular_acceleration).norm() < 1e-3, "t {t}: ω̇");
+    }
+}
+
+#[test]
+fn repeated_waypoints_are_a_standstill_and_the_spline_does_not_overshoot() {
+    let traj = Trajectory {
+        interpolation: Interpolation::Spline,
+        waypoints: vec![
+            waypoint(0.0, [0.0; 3], 0.0, 0.0, 0.0),
+            waypoint(2.0, [0.0; 3], 0.0, 0.0, 0.0),
+            waypoint(5.0, [3.0, 0.0, 0.0], 0.0, 0.0, 0.0),
+            waypoint(7.0, [3.0, 0.0, 0.0], 0.0, 0.0, 0.0),
+        ],
+        ..Trajectory::default()
+    };
+    for t in [0.0, 0.7, 1.99, 5.0, 6.2, 9.0] {
+        let p = traj.pose(t);
+        assert!(p.velocity.norm() == 0.0, "t {t}: moving {}", p.velocity);
+    }
+    for k in 0..=300 {
+        let x = traj.pose(2.0 + 0.01 * f64::from(k)).position.x;
+        assert!((0.0..=3.0).contains(&x), "overshoot to {x}");
+    }
+}
+
+#[test]
+fn a_mounted_sensor_moves_with_its_lever_arm() {
+    let scene = hallways();
+    let mount = &scene.rig.radar;
+    let h = 1e-3;
+    for t in [5.0, 14.0, 21.0] {
+        let m = scene.sensor.pose(t).mounted(mount);
+        let (a, b) = (
+            scene.sensor.pose(t - h).mounted(mount),
+            scene.sensor.pose(t + h).mounted(mount),
+        );
+        let v = (b.position - a.position) / (2.0 * h);
+        let acc = (b.position - 2.0 * m.position + a.position) / (h * h);
+        assert!(
+            (v - m.velocity).norm() < 1e-5,
+            "t {t}: {v} vs {}",
+            m.velocity
+        );
+        assert!(
+            (acc - m.acceleration).norm() < 1e-3,
+            "t {t}: {acc} vs {}",
+            m.acceleration
+        );
+    }
+}
+
+#[test]
+fn an_ideal_imu_at_rest_measures_gravity_in_its_own_frame() {
+    // The hallways IMU is mounted upside down: at rest it reads +g along its own −z.
+    let scene = hallways();
+    let imu = simulate_imu(
+        &ImuSpec::ideal(200.0),
+        &scene.sensor,
+        &scene.rig.imu,
+        1.0,
+        1,
+    );
+    assert_eq!(imu.len(), 201);
+    for s in &imu {
+        assert!(
+            (s.accel - Vector3::new(0.0, 0.0, -9.80665)).norm() < 1e-9,
+            "{}",
+            s.accel
+        );
+        assert!(s.gyro.norm() < 1e-12);
+    }
+}
+
+#[test]
+fn imu_noise_has_the_configured_density() {
+    // A static rig: the sample spread is density·√rate, the bias spread over seeds is the
+    // turn-on σ (±4σ/√n sampling bounds).
+    let traj = Trajectory::default();
+    let spec = ImuSpec {
+        accel_bias_walk: 0.0,
+        gyro_bias_walk: 0.0,
+        ..ImuSpec::default()
+    };
+    let imu = simulate_imu(&spec, &traj, &Mount::default(), 50.0, 3);
+    let n = imu.len() as f64;
+    let mean: Vector3<f64> = imu.iter().map(|s| s.gyro).sum::<Vector3<f64>>() / n;
+    let var = imu.iter().map(|s| (s.gyro - mean).x.powi(2)).sum::<f64>() / (n - 1.0);
+    let expected = spec.gyro_noise * spec.rate_hz.sqrt();
+    let rel = (var.sqrt() / expected - 1.0).abs();
+    assert!(
+        rel < 4.0 / (2.0 * n).sqrt(),
+        "gyro σ {} vs {expected}",
+        var.sqrt()
+    );
+}
+
+/// Radar velocity measurements from the true motion, with white noise `sigma` per axis.
+fn perfect_radar(scene: &Scene, frames: usize, sigma: f64, seed: u64) -> Vec<FrameVelocity> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let noise = Normal::new(0.0, sigma.max(1e-12)).unwrap_or_else(|_| unreachable!());
+    let var = (sigma * sigma) as f32;
+    (0..frames)
+        .map(|i| {
+            let t = i as f64 / scene.frame_rate_hz;
+            let tm = t + 0.025;
+            let r = scene.sensor.pose(tm).mounted(&scene.rig.radar);
+            let v = r.rotation.inverse() * r.velocity;
+            let mut ego = dbe_radar::EgoVelocity {
+                status: dbe_radar::EgoStatus::Ok,
+                covariance: [[var, 0.0, 0.0], [0.0, var, 0.0], [0.0, 0.0, var]],
+                ..Default::default()
+            };
+            ego.velocity = dbe_radar::Vec3::new(
+                (v.x + noise.sample(&mut rng)) as f32,
+                (v.y + noise.sample(&mut rng)) as f32,
+                (v.z + noise.sample(&mut rng)) as f32,
+            );
+            FrameVelocity {
+                frame_time_s: t,
+                measure_time_s: tm,
+                points: 20,
+                ego,
+            }
+        })
+        .collect()
+}
+
+fn transforms(scene: &Scene) -> Transforms {
+    Transforms {
+        radar: scene.rig.radar.clone(),
+        imu: scene.rig.imu.clone(),
+    }
+}
+
+#[test]
+fn ekf_with_an_ideal_imu_and_exact_velocities_follows_the_truth() -> TestResult {
+    // An ideal IMU (pure integration follows the truth to 1e-7°) and radar velocities with 1 cm/s
+    // of white noise: the end point is off by at most the velocity noise integrated over the
+    // 42 s after the standstill, 4·σ_v·√(T·Δt) = 8 cm, and the heading, unobservable from
+    // velocities, by what the linearised updates feed into it (measured 0.2°; 1° allowed).
+    let scene = hallways();
+    let frames = 430;
+    let imu = simulate_imu(
+        &ImuSpec::ideal(200.0),
+        &scene.sensor,
+        &scene.rig.imu,
+        43.0,
+        1,
+    );
+    let radar = perfect_radar(&scene, frames, 0.01, 1);
+    let run = odometry::run(&EkfParams::default(), &imu, &radar, &transforms(&scene))?;
+    assert_eq!(run.updates.gated, 0);
+    let gt = truth_at(&scene.sensor, (0..frames).map(|i| i as f64 / 10.0));
+    let e = metrics::evaluate(&run.trajectory, &gt).ok_or("no match")?;
+    assert!(
+        e.drift.xyz_m < 4.0 * 0.01 * (42.0f64 * 0.1).sqrt(),
+        "drift {:?}",
+        e.drift
+    );
+    assert!(e.drift.yaw_deg < 1.0, "yaw drift {:?}", e.drift);
+    Ok(())
+}
+
+#[test]
+fn ekf_drift_with_perfect_velocity_updates_is_bounded_by_the_imu_noise() -> TestResult {
+    // Radar velocities exact but for 2 cm/s white noise: position error comes from the heading,
+    // which velocity updates cannot observe. Its error grows from the gyro's turn-on bias left
+    // after the 1 s standstill mean (σ_b0 = density/√1 s), white noise and bias walk:
+    // σ_ψ(T)² = (σ_b0·T)² + density²·T + walk²·T³/3; the end-point error is bounded by
+    // 4·σ_ψ·path (a heading error rotates the whole path) plus the velocity noise integrated
+    // over the frames (σ_v·√(T·Δt), 4σ).
+    let scene = hallways();
+    let spec = ImuSpec::default();
+    let (frames, t_end) = (430, 43.0);
+    let mut worst: f64 = 0.0;
+    for seed in 1..=4 {
+        let imu = simulate_imu(&spec, &scene.sensor, &scene.rig.imu, t_end, seed);
+        let radar = perfect_radar(&scene, frames, 0.02, seed);
+        let run = odometry::run(&EkfParams::default(), &imu, &radar, &transforms(&scene))?;
+        let gt = truth_at(&scene.sensor, (0..frames).map(|i| i as f64 / 10.0));
+        let e = metrics::evaluate(&run.trajectory, &gt).ok_or("no match")?;
+        let t = t_end - 1.0;
+        let sigma_yaw = ((spec.gyro_noise * t).powi(2)
+            + spec.gyro_noise.powi(2) * t
+            + spec.gyro_bias_walk.powi(2) * t.powi(3) / 3.0)
+            .sqrt();
+        let bound = 4.0 * sigma_yaw * e.path_length_m + 4.0 * 0.02 * (t * 0.1).sqrt();
+        assert!(
+            e.drift.xyz_m < bound,
+            "seed {seed}: drift {} m > {bound} m",
+            e.drift.xyz_m
+        );
+        worst = worst.max(e.drift.xyz_pct);
+    }
+    eprintln!("worst drift with perfect velocities: {worst:.3} % of the path");
+    Ok(())
+}
+
+#[test]
+fn ekf_gates_a_wrong_velocity_and_takes_a_right_one() -> TestResult {
+    let scene = hallways();
+    let imu = simulate_imu(&ImuSpec::default(), &scene.sensor, &scene.rig.imu, 6.0, 2);
+    let (mut ekf, mut next) =
+        Ekf::initialise(EkfParams::default(), &imu, &scene.rig.radar, &scene.rig.imu)?;
+    // Converge on right velocities for 2 s of walking, then offer a wrong one.
+    let cov = Matrix3::identity() * 0.03f64.powi(2);
+    let truth_at_t = |t: f64| {
+        let r = scene.sensor.pose(t).mounted(&scene.rig.radar);
+        r.rotation.inverse() * r.velocity
+    };
+    let mut t = 2.0;
+    let mut truth = Vector3::zeros();
+    while t < 4.0 {
+        t += 0.1;
+        while imu[next].time_s <= t {
+            ekf.propagate(&imu[next]);
+            next += 1;
+        }
+        ekf.propagate_to(t, &imu[next]);
+        truth = truth_at_t(t);
+        let z = RadarVelocity {
+            time_s: t,
+            velocity: truth,
+            covariance: cov,
+        };
+        assert_eq!(ekf.update(&z), UpdateOutcome::Applied, "t {t}");
+    }
+    let wrong = RadarVelocity {
+        time_s: t,
+        velocity: truth + Vector3::new(1.5, 0.0, 0.0),
+        covariance: cov,
+    };
+    assert_eq!(ekf.update(&wrong), UpdateOutcome::Gated);
+    let right = RadarVelocity {
+        time_s: t,
+        velocity: truth,
+        covariance: cov,
+    };
+    assert_eq!(ekf.update(&right), UpdateOutcome::Applied);
+    Ok(())
+}
+
+#[test]
+fn initialisation_refuses_a_moving_start() {
+    let traj = Trajectory {
+        velocity: Some([1.0, 0.0, 0.0]),
+        yaw_rate_deg_s: Some(30.0),
+        ..Trajectory::default()
+    };
+    let imu = simulate_imu(&ImuSpec::default(), &traj, &Mount::default(), 3.0, 1);
+    let e = Ekf::initialise(
+        EkfParams::default(),
+        &imu,
+        &Mount::default(),
+        &Mount::default(),
+    );
+    assert!(e.is_err_and(|e| e.to_string().contains("moves")));
+    let short: Vec<ImuSample> = imu[..10].to_vec();
+    let e = Ekf::initialise(
+        EkfParams::default(),
+        &short,
+        &Mount::default(),
+        &Mount::default(),
+    );
+    assert!(e.is_err_and(|e| e.to_string().contains("standstill")));
+}
+
+fn pose(t: f64, p: [f64; 3], yaw_deg: f64) -> StampedPose {
+    StampedPose {
+        time_s: t,
+        position: Vector3::from(p),
+        rotation: UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_deg.to_radians()),
+    }
+}
+
+#[test]
+fn metrics_of_a_rotated_and_shifted_copy_are_zero() -> TestResult {
+    // The estimate is the truth seen from another world frame (yaw 0.6 rad, shifted): the 4-DoF
+    // alignment removes it all.
+    let gt: Vec<_> = (0..50)
+        .map(|i| {
+            let t = f64::from(i) * 0.1;
+            pose(t, [t, (0.5 * t).sin(), 0.1 * t], 20.0 * t)
+        })
+        .collect();
+    let q = UnitQuaternion::from_euler_angles(0.0, 0.0, 0.6);
+    let est: Vec<_> = gt
+        .iter()
+        .map(|g| StampedPose {
+            time_s: g.time_s,
+            position: q * g.position + Vector3::new(3.0, -2.0, 1.0),
+            rotation: q * g.rotation,
+        })
+        .collect();
+    let e = metrics::evaluate(&est, &gt).ok_or("no match")?;
+    assert!(e.ate_rmse_m < 1e-9 && e.ate_yaw_rmse_deg < 1e-6, "{e:?}");
+    assert!(e.drift.xyz_m < 1e-9 && e.drift.yaw_deg < 1e-6, "{e:?}");
+    assert_eq!(e.relative.len(), 3);
+    assert!(e.relative.iter().all(|r| r.translation_rmse_m < 1e-9));
+    Ok(())
+}
+
+#[test]
+fn metrics_of_a_scaled_straight_line_match_the_hand_computation() -> TestResult {
+    // Truth: 10 m along x in 11 poses. Estimate: 1 % long, and 0.2 m high at the end.
+    // Drift after aligning the first pose: (0.1, 0, 0.2) → XYZ √0.05 = 0.2236 m = 2.236 % of
+    // 10 m, XY 0.1 m = 1 %, Z 0.2 m = 2 %; yaw 3° at the end → 3°, 0.3°/m.
+    let gt: Vec<_> = (0..=10)
+        .map(|i| pose(f64::from(i), [f64::from(i), 0.0, 0.0], 0.0))
+        .collect();
+    let est: Vec<_> = (0..=10)
+        .map(|i| {
+            let x = f64::from(i);
+            pose(x, [1.01 * x, 0.0, 0.02 * x], 0.3 * x)
+        })
+        .collect();
+    let e = metrics::evaluate(&est, &gt).ok_or("no match")?;
+    let d = &e.drift;
+    assert!((e.path_length_m - 10.0).abs() < 1e-12);
+    assert!((d.xyz_m - 0.05f64.sqrt()).abs() < 1e-9, "{d:?}");
+    assert!((d.xyz_pct - 100.0 * 0.05f64.sqrt() / 10.0).abs() < 1e-7);
+    assert!((d.xy_m - 0.1).abs() < 1e-9 && (d.xy_pct - 1.0).abs() < 1e-7);
+    assert!((d.z_m - 0.2).abs() < 1e-9 && (d.z_pct - 2.0).abs() < 1e-7);
+    assert!((d.yaw_deg - 3.0).abs() < 1e-9 && (d.yaw_deg_per_m - 0.3).abs() < 1e-9);
+    // Relative error over 1 m (10 %): segment i starts where the estimate's heading is 0.3·i°
+    // off, so aligning its start by yaw turns its 1.01 m step by a_i = −0.3·i°: end error²
+    // (1.01·cos a_i − 1)² + (1.01·sin a_i)² + 0.02², yaw error 0.3°.
+    let r = &e.relative[0];
+    assert!((r.length_m - 1.0).abs() < 1e-12 && r.segments == 10);
+    let expected = ((0..10)
+        .map(|i| {
+            let a = (-0.3 * f64::from(i)).to_radians();
+            (1.01 * a.cos() - 1.0).powi(2) + (1.01 * a.sin()).powi(2) + 0.02f64.powi(2)
+        })
+        .sum::<f64>()
+        / 10.0)
+        .sqrt();
+    assert!(
+        (r.translation_rmse_m - expected).abs() < 1e-9,
+        "{r:?} vs {expected}"
+    );
+    assert!((r.yaw_mean_deg - 0.3).abs() < 1e-9);
+    Ok(())
+}
+
+#[test]
+fn association_interpolates_and_drops_poses_outside_the_truth() {
+    let gt = vec![pose(0.0, [0.0; 3], 0.0), pose(1.0, [2.0, 0.0, 0.0], 90.0)];
+    let est = vec![
+        pose(-0.5, [0.0; 3], 0.0),
+        pose(0.25, [0.0; 3], 0.0),
+        pose(1.5, [0.0; 3], 0.0),
+    ];
+    let pairs = metrics::associate(&est, &gt);
+    assert_eq!(pairs.len(), 1);
+    let g = pairs[0].1;
+    assert!((g.position.x - 0.5).abs() < 1e-12);
+    assert!((metrics::yaw_of(&g.rotation).to_degrees() - 22.5).abs() < 1e-9);
+}
+
+#[test]
+fn navigation_files_round_trip() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let scene = hallways();
+    let imu = simulate_imu(&ImuSpec::default(), &scene.sensor, &scene.rig.imu, 2.0, 4);
+    write_imu(dir.path(), &imu)?;
+    assert_eq!(read_imu(dir.path())?, imu);
+    let t = transforms(&scene);
+    write_transforms(&dir.path().join("calib"), &t)?;
+    let back = load_transforms(&dir.path().join("calib"))?;
+    assert_eq!(back.radar.position, t.radar.position);
+    assert!((back.imu.rotation().matrix() - t.imu.rotation().matrix()).norm() < 1e-12);
+    Ok(())
+}
+
+#[test]
+fn malformed_navigation_files_are_errors_naming_file_and_line() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let seq = dir.path();
+    std::fs::create_dir_all(seq.join("imu"))?;
+    std::fs::create_dir_all(seq.join("groundtruth"))?;
+    let cases: [(&str, &str, &str, &str); 5] = [
+        (
+            "imu/imu_data.txt",
+            "0 0 9.8 0 0 0\n0 0 9.8 0 0\n",
+            "0\n0.005\n",
+            "imu_data.txt:2: 5 values, expected 6",
+        ),
+        (
+            "imu/imu_data.txt",
+            "0 0 9.8 0 0 0\n0 0 nan 0 0 0\n",
+            "0\n0.005\n",
+            "imu_data.txt:2: `nan` is not a finite number",
+        ),
+        (
+            "imu/imu_data.txt",
+            "0 0 9.8 0 0 0\n",
+            "0\n0.005\n",
+            "1 lines, but",
+        ),
+        (
+            "imu/imu_data.txt",
+            "0 0 9.8 0 0 0\n0 0 9.8 0 0 0\n",
+            "0.1\n0.05\n",
+            "goes back",
+        ),
+        (
+            "groundtruth/groundtruth_poses.txt",
+            "0 0 0 0 0 0 2\n",
+            "0\n",
+            "groundtruth_poses.txt:1: quaternion",
+        ),
+    ];
+    for (file, data, times, expected) in cases {
+        let path = seq.join(file);
+        std::fs::write(&path, data)?;
+        std::fs::write(path.with_file_name("timestamps.txt"), times)?;
+        let err = if file.starts_with("imu") {
+            read_imu(seq).err().map(|e| e.to_string())
+        } else {
+            read_groundtruth(seq).err().map(|e| e.to_string())
+        };
+        let err = err.ok_or_else(|| format!("{file}: {data:?} was accepted"))?;
+        assert!(err.contains(expected), "{err}");
+    }
+    let bad = seq.join(navigation::TRANSFORMS_DIR);
+    std::fs::create_dir_all(&bad)?;
+    let tf = bad.join(navigation::RADAR_TRANSFORM_FILE);
+    std::fs::write(&tf, "0 0 0\n")?;
+    let err = navigation::read_transform(&tf)
+        .err()
+        .ok_or("accepted")?
+        .to_string();
+    assert!(err.contains("1 lines; expected 2"), "{err}");
+    let err = load_transforms(Path::new("/nonexistent"))
+        .err()
+        .ok_or("accepted")?
+        .to_string();
+    assert!(
+        err.contains("base_to_single_chip.txt") && err.contains("not found"),
+        "{err}"
+    );
+    Ok(())
+}
+
+#[test]
+fn the_lever_arm_is_in_the_ego_velocity_truth() {
+    // A rig turning on the spot: the base does not move, the radar 12 cm ahead does,
+    // at ω × l; ego_truth recovers it from the base poses alone.
+    let traj = Trajectory {
+        yaw_rate_deg_s: Some(45.0),
+        ..Trajectory::default()
+    };
+    let gt = truth_at(&traj, (0..200).map(|i| f64::from(i) * 0.01));
+    let radar = Mount {
+        position: [0.12, 0.0, 0.0],
+        ..Mount::default()
+    };
+    let v = odometry::ego_truth(&gt, &radar, 1.0, 0.01).unwrap_or_default();
+    let expected = 0.12 * 45f64.to_radians();
+    assert!((v - Vector3::new(0.0, expected, 0.0)).norm() < 1e-4, "{v}");
+}
