@@ -69,7 +69,7 @@ fn s(p: &Path) -> &str {
 #[test]
 fn every_subcommand_has_help() {
     for sub in [
-        "process", "simulate", "validate", "plot", "demo", "eval", "bench",
+        "process", "simulate", "validate", "plot", "demo", "eval", "bench", "odometry",
     ] {
         let help = ok(&[sub, "--help"]);
         assert!(help.contains("Usage: dbe"), "{sub}: {help}");
@@ -338,4 +338,122 @@ fn a_capture_without_configuration_is_refused_with_the_sizes_that_fit() -> TestR
     )?;
     ok(&["process", s(&capture), "--out", s(&out)]);
     Ok(())
+}
+
+#[test]
+fn odometry_on_a_simulated_walk_writes_a_trajectory_evo_reads() -> TestResult {
+    // The first 12 s of the hallways loop: 2 s standstill, then 9.5 m straight on.
+    let dir = tempfile::tempdir()?;
+    let seq = simulated(dir.path(), "odometry/hallways", "120");
+    for f in [
+        "imu/imu_data.txt",
+        "imu/timestamps.txt",
+        "calib/transforms/base_to_imu.txt",
+    ] {
+        assert!(seq.join(f).is_file(), "{f} not simulated");
+    }
+    let out = dir.path().join("odo");
+    let stdout = ok(&["odometry", s(&seq), "--out", s(&out)]);
+    assert!(
+        stdout.contains("radar updates") && stdout.contains("drift"),
+        "{stdout}"
+    );
+
+    // TUM: `t tx ty tz qx qy qz qw`, one line per frame at the frame's timestamp.
+    let tum = std::fs::read_to_string(out.join("trajectory_tum.txt"))?;
+    let stamps = std::fs::read_to_string(seq.join("single_chip/adc_samples/timestamps.txt"))?;
+    let rows: Vec<Vec<f64>> = tum
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| {
+            l.split_whitespace()
+                .map(|v| v.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 120);
+    for (row, t) in rows.iter().zip(stamps.lines()) {
+        assert_eq!(row.len(), 8);
+        assert!(row.iter().all(|v| v.is_finite()));
+        assert!((row[0] - t.parse::<f64>()?).abs() < 1e-6);
+        let qn: f64 = row[4..].iter().map(|q| q * q).sum();
+        assert!((qn - 1.0).abs() < 1e-6);
+    }
+    let csv = std::fs::read_to_string(out.join("ego_velocity.csv"))?;
+    assert_eq!(csv.lines().next(), Some(host_sim::odometry::EGO_CSV_HEADER));
+    assert_eq!(csv.lines().count(), 121);
+
+    // A sanity bound, not the goal: a filter that mixed up frames or signs is off by metres on
+    // 9.5 m; the README's figures come from the full sequences.
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json"))?)?;
+    let e = &summary["evaluation"];
+    let path = e["path_length_m"].as_f64().ok_or("no path length")?;
+    assert!((path - 9.5).abs() < 0.5, "path {path}");
+    let drift = e["drift"]["xyz_pct"].as_f64().ok_or("no drift")?;
+    assert!(drift < 10.0, "drift {drift} % of the path");
+    assert!(
+        summary["updates"]["applied"].as_u64().unwrap_or(0) > 50,
+        "{summary}"
+    );
+    for png in ["trajectory_top.png", "trajectory_side.png"] {
+        assert!(out.join(png).is_file(), "{png}");
+    }
+    assert!(out.join("groundtruth_tum.txt").is_file());
+    evo_reads(&out, e["ate_rmse_m"].as_f64().ok_or("no ATE")?);
+
+    // Missing IMU data or mounts: an error naming the file, nothing written.
+    std::fs::remove_file(seq.join("imu/imu_data.txt"))?;
+    let err = fails(&["odometry", s(&seq), "--out", s(&dir.path().join("odo2"))]);
+    assert!(err.contains("imu_data.txt"), "{err}");
+    assert!(!dir.path().join("odo2").exists());
+    std::fs::remove_file(seq.join("calib/transforms/base_to_imu.txt"))?;
+    let err = fails(&["odometry", s(&seq), "--out", s(&dir.path().join("odo3"))]);
+    assert!(err.contains("base_to_imu.txt"), "{err}");
+    Ok(())
+}
+
+/// `evo_ape tum` (the `evo` package, which `.ci/run` installs) loads both TUM files, and its
+/// SE(3)-aligned RMSE is at most ours: Umeyama over 6 DoF can only fit better than the
+/// position + yaw alignment over the same matched poses. Skipped outside CI when `evo` is not
+/// installed.
+fn evo_reads(out: &Path, ate_posyaw_m: f64) {
+    let run = Command::new("evo_ape")
+        .args([
+            "tum",
+            "groundtruth_tum.txt",
+            "trajectory_tum.txt",
+            "--align",
+        ])
+        .current_dir(out)
+        .env("MPLBACKEND", "Agg")
+        .output();
+    let o = match run {
+        Ok(o) => o,
+        Err(e) => {
+            assert!(
+                std::env::var("CI").as_deref() != Ok("true"),
+                "evo_ape cannot run ({e}); .ci/run installs it with pip"
+            );
+            eprintln!("skipped: evo_ape not installed");
+            return;
+        }
+    };
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "evo_ape failed: {text}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let rmse = text
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("rmse"))
+        .and_then(|v| v.trim().parse::<f64>().ok());
+    let Some(rmse) = rmse else {
+        panic!("no rmse in evo_ape's output: {text}");
+    };
+    assert!(
+        rmse.is_finite() && rmse <= ate_posyaw_m + 1e-3,
+        "evo {rmse} vs ours {ate_posyaw_m}"
+    );
 }

@@ -9,8 +9,9 @@
 //!   angle rates, no acceleration (the motion of the original scenes);
 //! - `interpolation = "spline"`: a cubic Hermite spline through every waypoint, per channel
 //!   (x, y, z, yaw, pitch, roll), with the parabolic tangent of the three waypoints around each
-//!   knot, zero where the channel turns back or stands still (no overshoot: repeated waypoints
-//!   are a standstill) and zero at both ends. Velocity is continuous, acceleration piecewise
+//!   knot, zero where the channel turns back or stands still and limited to three times either
+//!   neighbouring secant (Fritsch–Carlson: each segment is monotone, so the path never
+//!   overshoots a waypoint and repeated waypoints are a standstill), zero at both ends. Velocity is continuous, acceleration piecewise
 //!   linear: what an IMU on a walking or driving rig sees.
 //!
 //! Attitude is `R = Rz(yaw)·Ry(pitch)·Rx(roll)` (body → world, z–y–x Euler angles), and the
@@ -396,7 +397,9 @@ impl Trajectory {
             if s0 * s1 <= 0.0 {
                 0.0
             } else {
-                (s0 * h1 + s1 * h0) / (h0 + h1)
+                // Fritsch–Carlson: at most 3× either secant keeps the segment monotone.
+                let m = (s0 * h1 + s1 * h0) / (h0 + h1);
+                m.signum() * m.abs().min(3.0 * s0.abs().min(s1.abs()))
             }
         })
     }
