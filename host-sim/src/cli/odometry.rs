@@ -11,6 +11,7 @@ use host_sim::io::{
     load_transforms, navigation, read_groundtruth, read_imu, StagedDir, StampedPose,
 };
 use host_sim::odometry::{self, ekf::EkfParams, metrics, FrameVelocity};
+use nalgebra::Vector3;
 use serde_json::json;
 
 use super::input::Input;
@@ -103,6 +104,9 @@ fn ego_errors(
     })
 }
 
+/// A chart coordinate from a pose's index and position.
+type Coordinates<'a> = dyn Fn(usize, &Vector3<f64>) -> (f64, f64) + 'a;
+
 /// Top (x–y) and side (distance–z) views of both trajectories, the estimate aligned to the
 /// truth by position and yaw.
 fn plot(dir: &Path, name: &str, est: &[StampedPose], gt: &[StampedPose]) -> Result<()> {
@@ -111,65 +115,41 @@ fn plot(dir: &Path, name: &str, est: &[StampedPose], gt: &[StampedPose]) -> Resu
     let g: Vec<_> = pairs.iter().map(|(_, g)| g.position).collect();
     let al = metrics::align_posyaw(&e, &g);
     let e: Vec<_> = e.iter().map(|p| al.apply(p)).collect();
-    let series = |label: &str, pts: Vec<(f64, f64)>, colour: [u8; 3], dashed: bool| Series {
-        label: label.into(),
-        points: pts,
-        colour,
-        dashed,
+    let times: Vec<f64> = pairs.iter().map(|(_, g)| g.time_s).collect();
+    // One chart of truth (dashed black) and estimate (blue), each point `xy(index, position)`.
+    let chart = |title: String, x_label: &str, y_label: &str, xy: &Coordinates<'_>| {
+        let line = |label: &str, pts: &[Vector3<f64>], colour: [u8; 3], dashed: bool| Series {
+            label: label.into(),
+            points: pts.iter().enumerate().map(|(i, p)| xy(i, p)).collect(),
+            colour,
+            dashed,
+        };
+        Chart {
+            title,
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            log_x: false,
+            log_y: false,
+            y_range: None,
+            series: vec![
+                line("ground truth", &g, [0, 0, 0], true),
+                line("odometry", &e, [0, 114, 178], false),
+            ],
+        }
     };
-    let top = Chart {
-        title: format!("{name}: top view (estimate aligned by position and yaw)"),
-        x_label: "x (m)".into(),
-        y_label: "y (m)".into(),
-        log_x: false,
-        log_y: false,
-        y_range: None,
-        series: vec![
-            series(
-                "ground truth",
-                g.iter().map(|p| (p.x, p.y)).collect(),
-                [0, 0, 0],
-                true,
-            ),
-            series(
-                "odometry",
-                e.iter().map(|p| (p.x, p.y)).collect(),
-                [0, 114, 178],
-                false,
-            ),
-        ],
-    };
+    let top = chart(
+        format!("{name}: top view (estimate aligned by position and yaw)"),
+        "x (m)",
+        "y (m)",
+        &|_, p| (p.x, p.y),
+    );
     render(&top, &dir.join("trajectory_top.png"))?;
-    let side = Chart {
-        title: format!("{name}: height along the path"),
-        x_label: "time (s)".into(),
-        y_label: "z (m)".into(),
-        log_x: false,
-        log_y: false,
-        y_range: None,
-        series: vec![
-            series(
-                "ground truth",
-                pairs
-                    .iter()
-                    .zip(&g)
-                    .map(|((_, t), p)| (t.time_s, p.z))
-                    .collect(),
-                [0, 0, 0],
-                true,
-            ),
-            series(
-                "odometry",
-                pairs
-                    .iter()
-                    .zip(&e)
-                    .map(|((_, t), p)| (t.time_s, p.z))
-                    .collect(),
-                [0, 114, 178],
-                false,
-            ),
-        ],
-    };
+    let side = chart(
+        format!("{name}: height over time"),
+        "time (s)",
+        "z (m)",
+        &|i, p| (times[i], p.z),
+    );
     render(&side, &dir.join("trajectory_side.png"))?;
     Ok(())
 }
