@@ -83,6 +83,8 @@ fn run(targets: &[Target], noise: f64, seed: u64, params: FftParams) -> Run {
 /// The spec §2 quantities of the ColoRadar preset, computed here from the raw configuration.
 struct Model {
     lambda: f64,
+    /// Wavelength of the range phase's carrier, the first sample's frequency f_0 (spec §2).
+    lambda_0: f64,
     kappa: f64,
     del: f64,
     range_bin: f64,
@@ -95,6 +97,7 @@ fn model() -> Model {
     let fc = w.start_frequency_hz + w.slope_hz_per_s * (n / w.adc_sample_rate_hz) / 2.0;
     Model {
         lambda: SPEED_OF_LIGHT / fc,
+        lambda_0: SPEED_OF_LIGHT / w.start_frequency_hz,
         kappa: std::f64::consts::PI * fc / AntennaGeometry::COLORADAR.f_design_hz,
         // TX2 sits one half-wavelength unit above the azimuth line.
         del: 1.0,
@@ -112,11 +115,12 @@ impl Model {
         self.lambda / (2.0 * p::LOOPS as f64 * self.t_loop)
     }
 
-    /// Slow-time frequency in Doppler bins of a target moving at `v`: carrier Doppler plus
-    /// the drift of the range-FFT phase `π·(r − b)·(N−1)/N` as `r` moves.
+    /// Slow-time frequency in Doppler bins of a target moving at `v`: carrier Doppler at f_0
+    /// plus the drift of the range-FFT phase `π·(r − b)·(N−1)/N` as `r` moves (together
+    /// `4π·v/λ` at `f_c − S/(2·fs)`).
     fn slow_time_bins(&self, v: f64) -> f64 {
         let n = p::SAMPLES as f64;
-        let omega = 4.0 * std::f64::consts::PI * v / self.lambda
+        let omega = 4.0 * std::f64::consts::PI * v / self.lambda_0
             + std::f64::consts::PI * v * (n - 1.0) / (n * self.range_bin);
         omega * p::LOOPS as f64 * self.t_loop / std::f64::consts::TAU
     }

@@ -33,6 +33,9 @@ pub struct SensorConfig {
     pub f_design_hz: f64,
     /// Coupling calibration, when present.
     pub coupling: Option<Coupling>,
+    /// Time from the ramp start to the first ADC sample (`adc_start_time`), s; 0 when the
+    /// calibration omits it (spec §2).
+    pub adc_start_time_s: f64,
 }
 
 impl SensorConfig {
@@ -49,7 +52,14 @@ impl SensorConfig {
             rx: g.rx.to_vec(),
             f_design_hz: g.f_design_hz,
             coupling: None,
+            adc_start_time_s: 0.0,
         }
+    }
+
+    /// Frequency of the ramp at the first ADC sample, `f_0 = f_start + S·t_adc`, Hz: the
+    /// carrier of the signal model's range phase (spec §2).
+    pub fn first_sample_frequency_hz(&self) -> f64 {
+        self.waveform.start_frequency_hz + self.waveform.slope_hz_per_s * self.adc_start_time_s
     }
 
     /// The TI IWR6843 fixture's sensor (RF values assumed, see the fixture README).
@@ -65,6 +75,7 @@ impl SensorConfig {
             rx: g.rx.to_vec(),
             f_design_hz: g.f_design_hz,
             coupling: None,
+            adc_start_time_s: 0.0,
         }
     }
 

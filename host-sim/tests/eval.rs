@@ -324,17 +324,19 @@ fn angle_errors_shrink_with_snr_down_to_the_grid_floor() {
 fn doppler_errors_are_the_bin_quantisation_and_the_velocity_scale_of_the_model() {
     let e = quick();
     let bin = dbe_radar::Waveform::COLORADAR.doppler_bin_mps(128, 128, 3);
-    // λ·(N−1)/(4·N·Δr): the range-FFT phase centre's share of the slow-time phase.
+    // Spec §2 (amended) puts the range phase's carrier at the first sample, f_0; the range-FFT
+    // bin's phase centre is the window centre (N − 1)/2, so the slow-time phase advances at
+    // f_0 + S·(N − 1)/(2·fs) = f_c − S/(2·fs): a scale of −S/(2·fs·f_c) = −λ/(4·N·Δr).
     let w = dbe_radar::Waveform::COLORADAR;
-    let predicted = w.wavelength_m(128) * 127.0 / (4.0 * 128.0 * w.range_bin_m(128));
-    assert!((predicted - 0.00767).abs() < 1e-4, "{predicted}");
+    let predicted = -w.wavelength_m(128) / (4.0 * 128.0 * w.range_bin_m(128));
+    assert!((predicted + 6.04e-5).abs() < 1e-6, "{predicted}");
     for s in [10.0, 20.0, 30.0] {
         for v in [names::DBE, names::FFT] {
             let r = e
                 .accuracy_at(v, s)
                 .and_then(|r| r.doppler_rmse_mps)
                 .unwrap_or(f64::NAN);
-            // Quantisation (bin/√12) and the scale error (≈ 0.0077 · 0.58 m/s RMS) add.
+            // Quantisation (bin/√12) and the scale error (≈ 6·10⁻⁵ · 0.58 m/s RMS) add.
             let expected = ((bin * bin / 12.0) + (predicted * 0.577).powi(2)).sqrt();
             assert!(
                 r > 0.6 * expected && r < 1.6 * expected,

@@ -44,8 +44,11 @@ fn still(position: [f64; 3], amplitude: f64, phase: f64) -> Scatterer {
     }
 }
 
+/// The carrier of the range phase: the first ADC sample's frequency `f_0 = f_start + S·t_adc`
+/// (spec §2 as amended).
 fn lambda(sensor: &SensorConfig) -> f64 {
-    C / sensor.waveform.center_frequency_hz(sensor.samples)
+    let w = &sensor.waveform;
+    C / (w.start_frequency_hz + w.slope_hz_per_s * sensor.adc_start_time_s)
 }
 
 fn kappa(sensor: &SensorConfig) -> f64 {
@@ -339,6 +342,7 @@ fn rendering_matches_the_literal_formula_with_rounding_and_clipping() {
         rx: vec![(0.0, 0.0), (1.13, 0.0), (2.2, -0.3)],
         f_design_hz: 60.0e9,
         coupling: None,
+        adc_start_time_s: 4.0e-6,
     };
     assert_matches_oracle(&odd, &scatterers[..4], "odd sensor");
 

@@ -49,7 +49,9 @@ pub fn synth<const N: usize, const K: usize, const TX: usize, const RX: usize>(
 ) -> Vec<[[[i16; 2]; N]; RX]> {
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let fc = w.start_frequency_hz + w.slope_hz_per_s * (N as f64 / w.adc_sample_rate_hz) / 2.0;
-    let lambda = SPEED_OF_LIGHT / fc;
+    // Spec §2 (amended): the range phase's carrier is the first sample's frequency f_0, which
+    // is f_start here (the core's waveform has no ADC start time, i.e. t_adc = 0).
+    let lambda = SPEED_OF_LIGHT / w.start_frequency_hz;
     let kappa = std::f64::consts::PI * fc / g.f_design_hz;
     let tc = w.idle_time_s + w.ramp_end_time_s;
     let t_loop = TX as f64 * tc;

@@ -233,16 +233,12 @@ fn doppler_section(m: &mut String, e: &Evaluation) {
         );
     }
     let _ = writeln!(m, "\nOn the grid both chains are quantised to one Doppler bin ({:.4} m/s; RMS {:.4} m/s). \
-        With sub-grid refinement the error is dominated by a velocity *scale* error of the simulated data: \
-        the slow-time phase of the range-FFT bin advances by 4π·v·T/λ *plus* π·(N−1)/N per bin of range \
-        migration (the bin's phase centre is the chirp's middle sample), i.e. λ·(N−1)/(4·N·Δr) = 0.77 % more \
-        than the chains' conversion v = d·λ/(2·K·T_loop) assumes (last column: the least-squares slope of the \
-        error against the true velocity). The cause is the signal model of spec §2, which the simulator follows: \
-        it gives the chirp's first sample the carrier phase 4πR/λ of the *centre* frequency f_c and adds the \
-        whole beat ramp, so the bin's phase centre (the middle sample) sees f_c + S·(N−1)/(2·fs), 0.77 % above \
-        the f_c the chains convert with. In a real FMCW radar the first sample's phase belongs to the ramp's \
-        start frequency and the middle sample's to ≈ f_c, which is what the chains assume: the scale error is \
-        the model's, not the chains' (spec §2 with f_start in the carrier term would remove it).\n",
+        The last column is the least-squares slope of the velocity error against the true velocity (a \
+        velocity *scale* error). The simulator follows spec §2 as amended: the range phase's carrier is the \
+        first ADC sample's frequency f_0, so the range-FFT bin (phase centre at the window centre, sample \
+        (N−1)/2) advances in slow time at f_0 + S·(N−1)/(2·fs) = f_c − S/(2·fs), against the f_c the chains \
+        convert with: a predicted scale of −S/(2·fs·f_c) = −0.006 %, as on real data. (Before the amendment \
+        the carrier sat at f_c and the scale was +0.77 %.)\n",
         doppler_bin_mps(), doppler_bin_mps() / 12f64.sqrt());
 }
 

@@ -518,6 +518,7 @@ pub fn load_calib(dir: &Path) -> Result<SensorConfig, IoError> {
         rx: a.rx,
         f_design_hz: a.f_design_hz,
         coupling,
+        adc_start_time_s: w.adc_start_time_s.unwrap_or(0.0),
     };
     check_sensor(&wpath, &sensor)?;
     Ok(sensor)
@@ -605,7 +606,7 @@ pub(crate) fn check_sensor(path: &Path, sensor: &SensorConfig) -> Result<(), IoE
 /// Write the three files of `sensor` into `dir` (which exists). No atomicity of its own.
 pub(crate) fn write_calib_files(dir: &Path, sensor: &SensorConfig) -> Result<(), IoError> {
     let w = &sensor.waveform;
-    let waveform = format!(
+    let mut waveform = format!(
         "num_rx {}\nnum_tx {}\nnum_adc_samples_per_chirp {}\nnum_chirps_per_frame {}\n\
          adc_sample_frequency {}\nstart_frequency {}\nidle_time {}\nramp_end_time {}\n\
          frequency_slope {}\n",
@@ -619,6 +620,9 @@ pub(crate) fn write_calib_files(dir: &Path, sensor: &SensorConfig) -> Result<(),
         w.ramp_end_time_s,
         w.slope_hz_per_s
     );
+    if sensor.adc_start_time_s > 0.0 {
+        waveform.push_str(&format!("adc_start_time {}\n", sensor.adc_start_time_s));
+    }
     write_plain(&dir.join(WAVEFORM_FILE), waveform.as_bytes())?;
 
     let mut antenna = format!(

@@ -3,14 +3,18 @@
 //! One ADC sample of virtual antenna `m = (t, r)`, loop `k`, sample `n` is
 //!
 //! ```text
-//! Σ_s A_s · exp( j · [ 2π·(2·S·R_s/c)·n/fs + 4π·R_s/λ − κ·(μ_s·az_m + ν_s·el_m) + φ0_s ] )
+//! Σ_s A_s · exp( j · [ 2π·(2·S·R_s/c)·n/fs + 4π·R_s·f_0/c − κ·(μ_s·az_m + ν_s·el_m) + φ0_s ] )
 //! ```
 //!
 //! plus complex white Gaussian noise, rounded half away from zero and clipped to int16. `R_s`,
 //! `μ_s = −u_y` and `ν_s = u_z` are taken at the start of the chirp, `τ = k·T_loop + t·Tc`,
 //! from `P_s + V_s·τ + A_s·τ²/2` (the second-order expansion of the rig's motion at the frame
 //! start: the radar pose is followed chirp by chirp, turns and accelerations included): range
-//! migration, Doppler and the TDM-MIMO slot offset are all in the data. `λ = c / f_c` with `f_c = f_start + S·(N/fs)/2` and `κ = π·f_c / F_design`.
+//! migration, Doppler and the TDM-MIMO slot offset are all in the data. The range phase's
+//! carrier is the frequency at the first ADC sample, `f_0 = f_start + S·t_adc` (spec §2 as
+//! amended: with it a range bin's slow-time phase advances by `4π·ΔR/λ` at
+//! `f_c = f_start + S·(N/fs)/2`, as on real data, and velocities come out unbiased), and
+//! `κ = π·f_c / F_design`.
 //!
 //! Method: per chirp and RX the samples are a sum of complex exponentials
 //! `Σ_s c_s·exp(j·ω_s·n)`, computed by a non-uniform FFT (kernel spreading onto a 2×
@@ -57,7 +61,7 @@ pub struct Scatterer {
 pub(crate) struct Constants {
     /// Beat phase per sample per metre of range, `2π·2·S / (c·fs)`, rad/(m·sample).
     pub omega_per_m: f64,
-    /// Carrier phase per metre of range, `4π / λ`, rad/m.
+    /// Carrier phase per metre of range, `4π·f_0 / c`, rad/m.
     pub carrier_per_m: f64,
     /// Phase per half-wavelength unit, `κ = π·f_c / F_design`, rad.
     pub kappa: f64,
@@ -75,7 +79,6 @@ impl Constants {
     pub(crate) fn new(sensor: &SensorConfig) -> Self {
         let w = &sensor.waveform;
         let f_c = w.center_frequency_hz(sensor.samples);
-        let lambda = SPEED_OF_LIGHT / f_c;
         let pos = |v: &[(f32, f32)]| {
             v.iter()
                 .map(|&(a, e)| (f64::from(a), f64::from(e)))
@@ -84,7 +87,8 @@ impl Constants {
         Self {
             omega_per_m: 2.0 * std::f64::consts::PI * 2.0 * w.slope_hz_per_s
                 / (SPEED_OF_LIGHT * w.adc_sample_rate_hz),
-            carrier_per_m: 4.0 * std::f64::consts::PI / lambda,
+            carrier_per_m: 4.0 * std::f64::consts::PI * sensor.first_sample_frequency_hz()
+                / SPEED_OF_LIGHT,
             kappa: std::f64::consts::PI * f_c / sensor.f_design_hz,
             chirp_s: w.chirp_period_s(),
             loop_s: w.loop_period_s(sensor.num_tx),
