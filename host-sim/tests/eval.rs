@@ -199,6 +199,7 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
         "chamfer.csv",
         "scenes.csv",
         "defaults.csv",
+        "odometry.csv",
         "azimuth_rmse.png",
         "elevation_rmse.png",
         "doppler_rmse.png",
@@ -227,13 +228,19 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
             "{entry}"
         );
     }
-    assert_eq!(json["goals"].as_array().map(Vec::len), Some(4));
+    // Four point-cloud goals (issue 4), four odometry goals (issue 9).
+    assert_eq!(json["goals"].as_array().map(Vec::len), Some(8));
+    assert_eq!(
+        json["odometry"].as_array().map(Vec::len),
+        Some(host_sim::eval::odometry::SEQUENCES.len() * 2)
+    );
     let md = std::fs::read_to_string(dir.path().join("report.md"))?;
     for h in [
         "## Definitions",
         "## Angle accuracy",
         "## Two-target resolution",
         "## Chamfer distance",
+        "## Radar-inertial odometry",
         "## Goals",
         "## Defaults",
     ] {
@@ -452,4 +459,55 @@ fn scene_points_lie_on_the_surfaces() {
         k.mu.abs() < 1e-3 && k.nu.abs() < 1e-3 && k.omega.abs() < 1e-3,
         "{k:?}"
     );
+}
+
+#[test]
+fn the_odometry_section_runs_both_chains_on_every_sequence() {
+    let e = quick();
+    let seqs = host_sim::eval::odometry::SEQUENCES;
+    assert_eq!(e.odometry.len(), seqs.len() * 2);
+    for s in &seqs {
+        for v in [names::DBE, names::FFT] {
+            let r = e
+                .odometry
+                .iter()
+                .find(|r| r.sequence == s.name && r.variant == v)
+                .unwrap_or_else(|| panic!("{} {v}: no row", s.name));
+            assert!(r.failure.is_none(), "{} {v}: {:?}", s.name, r.failure);
+            let t = r
+                .errors
+                .as_ref()
+                .unwrap_or_else(|| panic!("{} {v}: no errors", s.name));
+            // The quick run's 60 frames: 2 s at rest, then 4 s walking at about 1 m/s.
+            assert_eq!(t.matched, 60);
+            assert!(t.path_length_m > 2.0 && t.path_length_m < 6.0, "{t:?}");
+            // Sanity, not the goal: a filter that lost the frames or the extrinsics is off by
+            // tens of per cent; an ego-velocity that mixed up axes by more than 2.5 Doppler bins.
+            assert!(t.drift.xyz_pct < 20.0, "{} {v}: {t:?}", s.name);
+            if r.ego.frames_compared > 0 {
+                assert!(r.ego.rmse_mps[0] < 0.1, "{} {v}: {:?}", s.name, r.ego);
+            }
+        }
+    }
+    // The FFT chain's dense points give an estimate on every moving frame of every sequence.
+    for r in e.odometry.iter().filter(|r| r.variant == names::FFT) {
+        assert!(r.ego.estimated_while_moving_pct > 95.0, "{r:?}");
+    }
+    let summary = &e.odometry_summary;
+    assert_eq!(summary.len(), seqs.len() * 2);
+    assert!(summary
+        .iter()
+        .filter(|s| s.variant == names::DBE)
+        .all(|s| s.xyz_pct_minus_fft.is_some()));
+    for goal in [
+        "ego-velocity RMSE",
+        "estimate on ≥ 98 %",
+        "drifts less than FFT-fed",
+        "XYZ drift ≤ 1.5 %",
+    ] {
+        assert!(
+            e.goals.iter().any(|g| g.goal.contains(goal)),
+            "goal {goal} missing"
+        );
+    }
 }

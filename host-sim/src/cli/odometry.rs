@@ -5,21 +5,18 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use dbe_radar::{EgoEstimator, EgoParams, EgoStatus};
+use dbe_radar::EgoStatus;
 use host_sim::eval::chart::{render, Chart, Series};
 use host_sim::io::{
     load_transforms, navigation, read_groundtruth, read_imu, StagedDir, StampedPose,
 };
-use host_sim::odometry::{self, ekf::EkfParams, metrics, FrameVelocity};
+use host_sim::odometry::{self, ekf::EkfParams, metrics};
 use nalgebra::Vector3;
 use serde_json::json;
 
 use super::input::Input;
 use super::process::{run_frames, Pipeline};
 use super::ParamArgs;
-
-/// Points the ego-velocity stage takes from one frame (the largest preset capacity).
-const EGO_POINTS: usize = 256;
 
 /// Arguments of `dbe odometry`.
 #[derive(Args, Debug)]
@@ -41,67 +38,6 @@ pub struct OdometryArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub params: ParamArgs,
-}
-
-/// The ego-velocity of every frame's points.
-fn ego_velocities(
-    results: &[super::process::FrameResult],
-    mid_frame_s: f64,
-) -> Result<Vec<FrameVelocity>> {
-    let mut ego = Box::new(EgoEstimator::<EGO_POINTS>::new(EgoParams::DEFAULT)?);
-    Ok(results
-        .iter()
-        .map(|r| {
-            let points: Vec<dbe_radar::Point> = r.points.iter().map(|p| p.to_point()).collect();
-            FrameVelocity {
-                frame_time_s: r.time_s,
-                measure_time_s: r.time_s + mid_frame_s,
-                points: points.len(),
-                ego: ego.estimate(&points),
-            }
-        })
-        .collect())
-}
-
-/// Ego-velocity errors against what the ground truth implies.
-fn ego_errors(
-    frames: &[FrameVelocity],
-    gt: &[StampedPose],
-    radar: &host_sim::sim::trajectory::Mount,
-) -> serde_json::Value {
-    let h = odometry::median_spacing(gt);
-    let (mut sq, mut n, mut moving, mut moving_ok) = ([0.0f64; 3], 0usize, 0usize, 0usize);
-    for f in frames {
-        let Some(truth) = odometry::ego_truth(gt, radar, f.measure_time_s, h) else {
-            continue;
-        };
-        let ok = matches!(f.ego.status, EgoStatus::Ok | EgoStatus::Standstill);
-        if truth.norm() > 0.1 {
-            moving += 1;
-            moving_ok += usize::from(ok);
-        }
-        if ok {
-            let v = f.ego.velocity;
-            for (i, e) in [v.x, v.y, v.z].into_iter().enumerate() {
-                sq[i] += (f64::from(e) - truth[i]).powi(2);
-            }
-            n += 1;
-        }
-    }
-    let rmse = sq.map(|s| {
-        if n > 0 {
-            (s / n as f64).sqrt()
-        } else {
-            f64::NAN
-        }
-    });
-    json!({
-        "rmse_mps": {"x": rmse[0], "y": rmse[1], "z": rmse[2]},
-        "frames_compared": n,
-        "moving_frames": moving,
-        "estimated_while_moving_pct": if moving > 0 { 100.0 * moving_ok as f64 / moving as f64 } else { f64::NAN },
-        "truth": "central differences of the interpolated ground-truth poses, radar lever arm included",
-    })
 }
 
 /// A chart coordinate from a pose's index and position.
@@ -199,7 +135,12 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         0..opened.input.len(),
         "odometry",
     )?;
-    let frames = ego_velocities(&results, host_sim::score::mid_frame_s(&opened.sensor))?;
+    let per_frame: Vec<(f64, &[host_sim::cloud::PointRecord])> = results
+        .iter()
+        .map(|r| (r.time_s, r.points.as_slice()))
+        .collect();
+    let frames =
+        odometry::frame_velocities(&per_frame, host_sim::score::mid_frame_s(&opened.sensor))?;
     let ekf = EkfParams::default();
     let run = odometry::run(&ekf, &imu, &frames, &transforms).context("radar-inertial odometry")?;
     let dir = staged.path();
@@ -227,7 +168,13 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     let mut line = String::new();
     if let Some(gt) = &gt {
         write("groundtruth_tum.txt", &odometry::tum_text(gt))?;
-        summary["ego_velocity"] = ego_errors(&frames, gt, &transforms.radar);
+        // The truth: central differences of the interpolated ground-truth poses, the radar's
+        // lever arm included.
+        let h = odometry::median_spacing(gt);
+        let ego = odometry::ego_errors(&frames, |t| {
+            odometry::ego_truth(gt, &transforms.radar, t, h)
+        });
+        summary["ego_velocity"] = serde_json::to_value(&ego)?;
         match metrics::evaluate(&run.trajectory, gt) {
             Some(e) => {
                 line = format!(

@@ -141,7 +141,34 @@ pub(super) fn csv_files(e: &Evaluation) -> Vec<(&'static str, String)> {
             r.chamfer_frames
         );
     }
+    let mut odo = String::from("sequence,seed,variant,frames,points_per_frame,ego_rmse_x_mps,ego_rmse_y_mps,ego_rmse_z_mps,estimated_while_moving_pct,updates_applied,updates_gated,path_length_m,ate_rmse_m,drift_xyz_m,drift_xyz_pct,drift_xy_pct,drift_z_pct,drift_yaw_deg\n");
+    for r in &e.odometry {
+        let t = r.errors.as_ref();
+        let _ = writeln!(
+            odo,
+            "{},{},{},{},{:.2},{:.4},{:.4},{:.4},{:.1},{},{},{},{},{},{},{},{},{}",
+            r.sequence,
+            r.seed,
+            r.variant,
+            r.frames,
+            r.points_per_frame,
+            r.ego.rmse_mps[0],
+            r.ego.rmse_mps[1],
+            r.ego.rmse_mps[2],
+            r.ego.estimated_while_moving_pct,
+            r.updates.applied,
+            r.updates.gated,
+            csv_opt(t.map(|t| t.path_length_m)),
+            csv_opt(t.map(|t| t.ate_rmse_m)),
+            csv_opt(t.map(|t| t.drift.xyz_m)),
+            csv_opt(t.map(|t| t.drift.xyz_pct)),
+            csv_opt(t.map(|t| t.drift.xy_pct)),
+            csv_opt(t.map(|t| t.drift.z_pct)),
+            csv_opt(t.map(|t| t.drift.yaw_deg)),
+        );
+    }
     vec![
+        ("odometry.csv", odo),
         ("accuracy.csv", acc),
         ("resolution.csv", res),
         ("noise_only.csv", noise),

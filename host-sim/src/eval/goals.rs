@@ -331,7 +331,80 @@ pub(super) fn goals(e: &Evaluation) -> Vec<Goal> {
         met,
         detail,
     });
+    odometry_goals(e, &mut out);
     out
+}
+
+/// Issue 9's goals, when the odometry section ran.
+fn odometry_goals(e: &Evaluation, out: &mut Vec<Goal>) {
+    let rows = |v: &str| -> Vec<&super::odometry::OdometrySummary> {
+        e.odometry_summary
+            .iter()
+            .filter(|s| s.variant == v)
+            .collect()
+    };
+    let (dbe, fft) = (rows(names::DBE), rows(names::FFT));
+    if dbe.is_empty() {
+        return;
+    }
+    let list = |f: &dyn Fn(&super::odometry::OdometrySummary) -> String| {
+        dbe.iter()
+            .map(|s| format!("{} {}", s.sequence, f(s)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let worst = dbe
+        .iter()
+        .map(|s| s.ego_rmse_mps.iter().copied().fold(0.0, f64::max))
+        .fold(0.0, f64::max);
+    out.push(Goal {
+        goal: "ego-velocity RMSE ≤ 0.05 m/s per axis (DBE chain)".into(),
+        met: worst <= 0.05,
+        detail: format!(
+            "RMSE x/y/z (m/s): {}",
+            list(&|s| format!(
+                "{:.3}/{:.3}/{:.3}",
+                s.ego_rmse_mps[0], s.ego_rmse_mps[1], s.ego_rmse_mps[2]
+            ))
+        ),
+    });
+    let least = dbe
+        .iter()
+        .map(|s| s.estimated_while_moving_pct)
+        .fold(f64::INFINITY, f64::min);
+    out.push(Goal {
+        goal: "an ego-velocity estimate on ≥ 98 % of frames while moving (DBE chain)".into(),
+        met: least >= 98.0,
+        detail: format!(
+            "{}; too few points in a frame is the usual reason",
+            list(&|s| format!("{:.1} %", s.estimated_while_moving_pct))
+        ),
+    });
+    let pairs: Vec<(f64, f64, &str)> = dbe
+        .iter()
+        .filter_map(|d| {
+            let f = fft.iter().find(|f| f.sequence == d.sequence)?;
+            Some((d.drift.xyz_pct, f.drift.xyz_pct, d.sequence.as_str()))
+        })
+        .collect();
+    out.push(Goal {
+        goal: "DBE-fed odometry drifts less than FFT-fed on every sequence".into(),
+        met: !pairs.is_empty() && pairs.iter().all(|(d, f, _)| d < f),
+        detail: format!(
+            "XYZ drift, % of the path, DBE vs FFT (mean over seeds): {}",
+            pairs
+                .iter()
+                .map(|(d, f, s)| format!("{s} {d:.2} vs {f:.2}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    });
+    let max = dbe.iter().map(|s| s.drift.xyz_pct).fold(0.0, f64::max);
+    out.push(Goal {
+        goal: "XYZ drift ≤ 1.5 % of the path length (DBE chain)".into(),
+        met: max <= 1.5,
+        detail: list(&|s| format!("{:.2} %", s.drift.xyz_pct)),
+    });
 }
 
 /// The headline numbers of `summary.json`.

@@ -41,6 +41,7 @@ pub mod crb;
 pub mod csv;
 pub mod figures;
 pub mod goals;
+pub mod odometry;
 pub mod report;
 pub mod scenarios;
 pub mod snr;
@@ -120,6 +121,10 @@ pub struct EvalConfig {
     /// Separations at which the sweep variants run on the resolution trials (both pair
     /// kinds), degrees.
     pub sweep_separations_deg: Vec<f64>,
+    /// Seeds per odometry sequence (0: no odometry section).
+    pub odometry_seeds: usize,
+    /// Frames per odometry sequence at most (`None`: the whole sequence).
+    pub odometry_frames: Option<usize>,
 }
 
 impl EvalConfig {
@@ -143,6 +148,8 @@ impl EvalConfig {
             sweep: true,
             sweep_snr_db: vec![2.5, 20.0],
             sweep_separations_deg: vec![6.0, 8.0],
+            odometry_seeds: 3,
+            odometry_frames: None,
         }
     }
 
@@ -157,6 +164,8 @@ impl EvalConfig {
             trials_per_pair: 8,
             noise_frames: 6,
             scene_frames: 2,
+            odometry_seeds: 1,
+            odometry_frames: Some(60),
             ..Self::full()
         }
     }
@@ -438,6 +447,30 @@ pub fn run_evaluation(
     )?;
     stage("scenes", t);
 
+    let odometry = if config.odometry_seeds > 0 {
+        progress(&format!(
+            "odometry: {} sequences × {} seeds{}",
+            odometry::SEQUENCES.len(),
+            config.odometry_seeds,
+            config
+                .odometry_frames
+                .map_or(String::new(), |n| format!(", first {n} frames"))
+        ));
+        let t = Instant::now();
+        let rows = odometry::run_odometry(
+            &ctx.sensor,
+            &bench,
+            &[idx(names::DBE)?, idx(names::FFT)?],
+            config.seed,
+            config.odometry_seeds,
+            config.odometry_frames,
+        )?;
+        stage("odometry", t);
+        rows
+    } else {
+        Vec::new()
+    };
+
     let t = Instant::now();
     let eval = tables::Evaluation::build(
         config,
@@ -448,6 +481,7 @@ pub fn run_evaluation(
         &pairs,
         &noise,
         &scenes,
+        odometry,
         timings,
         start,
     )?;

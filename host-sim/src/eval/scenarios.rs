@@ -184,7 +184,7 @@ pub fn trial_seed(seed: u64, tag: u64, a: u64, b: u64) -> u64 {
 
 /// Run `f` over `jobs` in parallel with per-thread [`Buffers`], keeping the input order; the
 /// first error wins.
-fn par_run<J, T, F>(jobs: &[J], f: F) -> Result<Vec<T>, EvalError>
+pub(super) fn par_run<J, T, F>(jobs: &[J], f: F) -> Result<Vec<T>, EvalError>
 where
     J: Sync,
     T: Send,

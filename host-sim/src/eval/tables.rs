@@ -248,6 +248,10 @@ pub struct Evaluation {
     pub defaults_resolution_m: f64,
     /// Recommendation per swept parameter.
     pub recommendations: Vec<(String, String)>,
+    /// Radar-inertial odometry, one row per sequence, seed and chain.
+    pub odometry: Vec<super::odometry::OdometryRow>,
+    /// Odometry per sequence and chain over the seeds (the paper's Table III layout).
+    pub odometry_summary: Vec<super::odometry::OdometrySummary>,
     /// Goals.
     pub goals: Vec<Goal>,
     /// The headline numbers (detection thresholds, RMSEs at 20 dB, resolution at 8°, mean
@@ -295,6 +299,7 @@ impl Evaluation {
         pairs: &[PairTrial],
         noise: &[Vec<Option<usize>>],
         scenes: &[SceneFrame],
+        odometry: Vec<super::odometry::OdometryRow>,
         timings: Vec<(String, f64)>,
         start: Instant,
     ) -> Result<Self, EvalError> {
@@ -362,6 +367,8 @@ impl Evaluation {
             defaults,
             defaults_resolution_m,
             recommendations,
+            odometry_summary: super::odometry::summarise(&odometry, names::DBE, names::FFT),
+            odometry,
             goals: Vec::new(),
             headline: serde_json::Value::Null,
             timings,

@@ -20,9 +20,10 @@ pub mod metrics;
 
 use std::fmt::Write as _;
 
-use dbe_radar::{EgoStatus, EgoVelocity};
+use dbe_radar::{ConfigError, EgoEstimator, EgoParams, EgoStatus, EgoVelocity};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
+use crate::cloud::PointRecord;
 use crate::io::{StampedPose, Transforms};
 use crate::sim::imu::ImuSample;
 use crate::sim::trajectory::Mount;
@@ -53,6 +54,86 @@ impl FrameVelocity {
                 covariance: Matrix3::from_fn(|r, k| f64::from(c[r][k])),
             }
         })
+    }
+}
+
+/// Points the ego-velocity stage takes from one frame (the largest preset's point capacity).
+pub const EGO_POINTS: usize = 256;
+
+/// The core's ego-velocity estimate (default parameters) of every frame: `frames` holds each
+/// frame's timestamp and points; the velocity refers to `timestamp + mid_frame_s` (the mean
+/// chirp time, [`crate::score::mid_frame_s`]).
+pub fn frame_velocities(
+    frames: &[(f64, &[PointRecord])],
+    mid_frame_s: f64,
+) -> Result<Vec<FrameVelocity>, ConfigError> {
+    let mut ego = Box::new(EgoEstimator::<EGO_POINTS>::new(EgoParams::DEFAULT)?);
+    Ok(frames
+        .iter()
+        .map(|&(t, points)| {
+            let points: Vec<dbe_radar::Point> = points.iter().map(PointRecord::to_point).collect();
+            FrameVelocity {
+                frame_time_s: t,
+                measure_time_s: t + mid_frame_s,
+                points: points.len(),
+                ego: ego.estimate(&points),
+            }
+        })
+        .collect())
+}
+
+/// Ego-velocity errors of a sequence against a truth.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct EgoErrors {
+    /// RMSE per radar axis (x, y, z) over the frames with an estimate, m/s.
+    pub rmse_mps: [f64; 3],
+    /// Frames with an estimate (`ok` or `standstill`) and a truth.
+    pub frames_compared: usize,
+    /// Frames whose true speed exceeds 0.1 m/s.
+    pub moving_frames: usize,
+    /// Of those, the share with an estimate, %.
+    pub estimated_while_moving_pct: f64,
+}
+
+/// The errors of `frames`' estimates against `truth(t)`, the radar's true velocity in its own
+/// frame at time `t` (`None` where unknown).
+pub fn ego_errors(
+    frames: &[FrameVelocity],
+    truth: impl Fn(f64) -> Option<Vector3<f64>>,
+) -> EgoErrors {
+    let (mut sq, mut n, mut moving, mut moving_ok) = ([0.0f64; 3], 0usize, 0usize, 0usize);
+    for f in frames {
+        let Some(t) = truth(f.measure_time_s) else {
+            continue;
+        };
+        let ok = f.measurement().is_some();
+        if t.norm() > 0.1 {
+            moving += 1;
+            moving_ok += usize::from(ok);
+        }
+        if ok {
+            let v = f.ego.velocity;
+            for (i, e) in [v.x, v.y, v.z].into_iter().enumerate() {
+                sq[i] += (f64::from(e) - t[i]).powi(2);
+            }
+            n += 1;
+        }
+    }
+    EgoErrors {
+        rmse_mps: sq.map(|s| {
+            if n > 0 {
+                (s / n as f64).sqrt()
+            } else {
+                f64::NAN
+            }
+        }),
+        frames_compared: n,
+        moving_frames: moving,
+        estimated_while_moving_pct: if moving > 0 {
+            100.0 * moving_ok as f64 / moving as f64
+        } else {
+            f64::NAN
+        },
     }
 }
 

@@ -1,0 +1,257 @@
+//! The paper's Table III in simulation: radar-inertial odometry fed by the DBE and by the FFT
+//! chain on the four simulated sequences (`scenes/odometry/`), several seeds each.
+//!
+//! Per sequence and seed the scene's seed is replaced by a mix of the evaluation seed and the
+//! seed index, so scatterer phases, ADC noise and the IMU's biases and noise are drawn anew;
+//! both chains process the same simulated frames and feed the same EKF ([`crate::odometry`],
+//! default parameters) with the same IMU samples. The ego-velocity truth is exact (the
+//! radar's velocity in its own frame at each frame's mean chirp time), the trajectory truth
+//! the rig's base pose at each frame time.
+
+use serde::Serialize;
+
+use super::bench::Bench;
+use super::scenarios::{par_run, SceneFile};
+use super::EvalError;
+use crate::cloud::PointRecord;
+use crate::io::StampedPose;
+use crate::odometry::{self, ekf::EkfParams, metrics, EgoErrors, UpdateCounts};
+use crate::sensor::SensorConfig;
+use crate::sim::{render::mix, scene_imu, Scene, Simulation};
+
+/// The simulated sequences, after the paper's four (hallways, outdoors, aspen, army).
+pub const SEQUENCES: [SceneFile; 4] = [
+    SceneFile {
+        name: "hallways",
+        text: include_str!("../../scenes/odometry/hallways.toml"),
+    },
+    SceneFile {
+        name: "outdoors",
+        text: include_str!("../../scenes/odometry/outdoors.toml"),
+    },
+    SceneFile {
+        name: "aspen",
+        text: include_str!("../../scenes/odometry/aspen.toml"),
+    },
+    SceneFile {
+        name: "army",
+        text: include_str!("../../scenes/odometry/army.toml"),
+    },
+];
+
+/// Stream of the per-seed scene seeds.
+const SEED_STREAM: u64 = 0x4F44_4F4D;
+
+/// One chain on one sequence and seed.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OdometryRow {
+    /// Sequence.
+    pub sequence: String,
+    /// Seed index.
+    pub seed: usize,
+    /// Variant (chain).
+    pub variant: String,
+    /// Frames.
+    pub frames: usize,
+    /// Mean points per frame.
+    pub points_per_frame: f64,
+    /// Ego-velocity errors against the exact truth.
+    pub ego: EgoErrors,
+    /// What the filter did with the frames.
+    pub updates: UpdateCounts,
+    /// Trajectory errors (`None` if the filter could not run).
+    pub errors: Option<metrics::TrajectoryErrors>,
+    /// Why the filter could not run.
+    pub failure: Option<String>,
+}
+
+/// Frames of a sequence: until its trajectory's last waypoint, at most `limit`.
+fn frame_count(scene: &Scene, limit: Option<usize>) -> usize {
+    let n = (scene.sensor.end_time_s() * scene.frame_rate_hz).floor() as usize;
+    limit.map_or(n, |l| n.min(l)).max(1)
+}
+
+/// Run the variants `which` of `bench` on every sequence for `seeds` seeds.
+pub fn run_odometry(
+    sensor: &SensorConfig,
+    bench: &Bench,
+    which: &[usize],
+    seed: u64,
+    seeds: usize,
+    limit: Option<usize>,
+) -> Result<Vec<OdometryRow>, EvalError> {
+    let mid = crate::score::mid_frame_s(sensor);
+    let mut rows = Vec::new();
+    for file in &SEQUENCES {
+        for k in 0..seeds {
+            let mut scene = Scene::from_toml_str(file.text, file.name)?;
+            scene.seed = mix(mix(mix(seed, SEED_STREAM), scene.seed), k as u64);
+            let sim = Simulation::new(&scene, sensor)?;
+            let n = frame_count(&scene, limit);
+            let imu = scene_imu(&scene, n);
+            let indices: Vec<usize> = (0..n).collect();
+            // points[frame][variant]
+            let points: Vec<Vec<Vec<PointRecord>>> = par_run(&indices, |&i, buf| {
+                let frame = sim.frame(i)?;
+                Ok(bench
+                    .run(&frame.adc, which, buf)?
+                    .into_iter()
+                    .map(|o| o.map(|o| o.points).unwrap_or_default())
+                    .collect())
+            })?;
+            let truth: Vec<StampedPose> = (0..n)
+                .map(|i| {
+                    let p = scene.sensor.pose(sim.time_s(i));
+                    StampedPose {
+                        time_s: sim.time_s(i),
+                        position: p.position,
+                        rotation: nalgebra::UnitQuaternion::from_rotation_matrix(&p.rotation),
+                    }
+                })
+                .collect();
+            let transforms = crate::io::Transforms {
+                radar: scene.rig.radar.clone(),
+                imu: scene.rig.imu.clone(),
+            };
+            for (slot, &v) in which.iter().enumerate() {
+                let per_frame: Vec<(f64, &[PointRecord])> = points
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| (sim.time_s(i), p[slot].as_slice()))
+                    .collect();
+                let frames = odometry::frame_velocities(&per_frame, mid)
+                    .map_err(|e| EvalError::Setup(format!("ego-velocity parameters: {e:?}")))?;
+                let ego = odometry::ego_errors(&frames, |t| {
+                    let r = scene.sensor.pose(t).mounted(&scene.rig.radar);
+                    Some(r.rotation.inverse() * r.velocity)
+                });
+                let run = odometry::run(&EkfParams::default(), &imu, &frames, &transforms);
+                let total: usize = frames.iter().map(|f| f.points).sum();
+                let (updates, errors, failure) = match run {
+                    Ok(r) => (r.updates, metrics::evaluate(&r.trajectory, &truth), None),
+                    Err(e) => (UpdateCounts::default(), None, Some(e.to_string())),
+                };
+                rows.push(OdometryRow {
+                    sequence: file.name.to_string(),
+                    seed: k,
+                    variant: bench.variants()[v].name.clone(),
+                    frames: n,
+                    points_per_frame: total as f64 / n as f64,
+                    ego,
+                    updates,
+                    errors,
+                    failure,
+                });
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// Mean and sample standard deviation (0 for one value); `None` when empty.
+pub fn mean_std(v: &[f64]) -> Option<(f64, f64)> {
+    if v.is_empty() {
+        return None;
+    }
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    let s = if v.len() > 1 {
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        0.0
+    };
+    Some((m, s))
+}
+
+/// One chain on one sequence over the seeds.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OdometrySummary {
+    /// Sequence.
+    pub sequence: String,
+    /// Variant.
+    pub variant: String,
+    /// Seeds with a trajectory.
+    pub seeds: usize,
+    /// Path length, m.
+    pub path_length_m: f64,
+    /// End-point drift XYZ, XY, Z (m and % of the path), yaw (° and °/m): mean over seeds.
+    pub drift: metrics::Drift,
+    /// XYZ drift, % of the path: standard deviation over seeds.
+    pub xyz_pct_std: f64,
+    /// ATE after the 4-DoF alignment, m (mean).
+    pub ate_rmse_m: f64,
+    /// Ego-velocity RMSE per axis, m/s (mean).
+    pub ego_rmse_mps: [f64; 3],
+    /// Share of moving frames with an estimate, % (mean).
+    pub estimated_while_moving_pct: f64,
+    /// Points per frame (mean).
+    pub points_per_frame: f64,
+    /// Paired DBE − FFT difference of the XYZ drift (% of the path), mean and standard
+    /// deviation over seeds (on the DBE row only).
+    pub xyz_pct_minus_fft: Option<(f64, f64)>,
+}
+
+/// Aggregate `rows` per sequence and variant; `dbe`/`fft` name the paired variants.
+pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySummary> {
+    let mut out = Vec::new();
+    for file in &SEQUENCES {
+        let mut variants: Vec<&str> = Vec::new();
+        for r in rows.iter().filter(|r| r.sequence == file.name) {
+            if !variants.contains(&r.variant.as_str()) {
+                variants.push(&r.variant);
+            }
+        }
+        for v in variants {
+            let mine: Vec<&OdometryRow> = rows
+                .iter()
+                .filter(|r| r.sequence == file.name && r.variant == v)
+                .collect();
+            let ok: Vec<&metrics::TrajectoryErrors> =
+                mine.iter().filter_map(|r| r.errors.as_ref()).collect();
+            let m = |f: &dyn Fn(&metrics::TrajectoryErrors) -> f64| {
+                mean_std(&ok.iter().map(|e| f(e)).collect::<Vec<_>>()).map_or(f64::NAN, |x| x.0)
+            };
+            let me = |f: &dyn Fn(&OdometryRow) -> f64| {
+                mean_std(&mine.iter().map(|r| f(r)).collect::<Vec<_>>()).map_or(f64::NAN, |x| x.0)
+            };
+            let paired = (v == dbe).then(|| {
+                let d: Vec<f64> = mine
+                    .iter()
+                    .filter_map(|r| {
+                        let other = rows.iter().find(|o| {
+                            o.sequence == r.sequence && o.seed == r.seed && o.variant == fft
+                        })?;
+                        Some(
+                            r.errors.as_ref()?.drift.xyz_pct - other.errors.as_ref()?.drift.xyz_pct,
+                        )
+                    })
+                    .collect();
+                mean_std(&d)
+            });
+            out.push(OdometrySummary {
+                sequence: file.name.to_string(),
+                variant: v.to_string(),
+                seeds: ok.len(),
+                path_length_m: m(&|e| e.path_length_m),
+                drift: metrics::Drift {
+                    xyz_m: m(&|e| e.drift.xyz_m),
+                    xyz_pct: m(&|e| e.drift.xyz_pct),
+                    xy_m: m(&|e| e.drift.xy_m),
+                    xy_pct: m(&|e| e.drift.xy_pct),
+                    z_m: m(&|e| e.drift.z_m),
+                    z_pct: m(&|e| e.drift.z_pct),
+                    yaw_deg: m(&|e| e.drift.yaw_deg),
+                    yaw_deg_per_m: m(&|e| e.drift.yaw_deg_per_m),
+                },
+                xyz_pct_std: mean_std(&ok.iter().map(|e| e.drift.xyz_pct).collect::<Vec<_>>())
+                    .map_or(f64::NAN, |x| x.1),
+                ate_rmse_m: m(&|e| e.ate_rmse_m),
+                ego_rmse_mps: [0, 1, 2].map(|i| me(&|r| r.ego.rmse_mps[i])),
+                estimated_while_moving_pct: me(&|r| r.ego.estimated_while_moving_pct),
+                points_per_frame: me(&|r| r.points_per_frame),
+                xyz_pct_minus_fft: paired.flatten(),
+            });
+        }
+    }
+    out
+}
