@@ -11,7 +11,7 @@
 //! RANSAC    : fixed number of 3-point fits (seeded generator),
 //!             inliers |y_i − h_iᵀv| ≤ inlier_mps, keep the most          ──▶ inlier set
 //! refine    : least squares on the inliers, inliers again, least squares ──▶ v
-//! covariance: σ̂²·(HᵀH)⁻¹ + floor²·I, σ̂² = Σ r² / (n − 3)
+//! covariance: max(σ̂², floor²)·(HᵀH)⁻¹ + floor²·I, σ̂² = Σ r² / (n − 3)
 //! ```
 //!
 //! The iteration count is the classic `⌈ln(1 − p) / ln(1 − (1 − ε)³)⌉` for an assumed outlier
@@ -54,8 +54,8 @@ pub struct EgoParams {
     pub success_probability: f32,
     /// Fewest inliers for an estimate (at least 3).
     pub min_inliers: u8,
-    /// Standard deviation added to every axis of the covariance, m/s (the model's floor:
-    /// grid quantisation and unmodelled effects).
+    /// Smallest per-point velocity noise, and the standard deviation added to every axis of
+    /// the covariance, m/s (the model's floor: grid quantisation and unmodelled effects).
     pub sigma_floor_mps: f32,
     /// Seed of the sample generator.
     pub seed: u64,
@@ -342,7 +342,10 @@ impl<const P: usize> EgoEstimator<P> {
         let floor2 = self.params.sigma_floor_mps * self.params.sigma_floor_mps;
         let mut cov = f.inverse;
         let dof = (count as f32 - 3.0).max(1.0);
-        let s2 = f.residual2 / dof;
+        // A few inliers chosen for their small residuals understate the points' noise: the
+        // residual variance is taken no lower than the floor, so that a direction the points
+        // barely constrain (large (HᵀH)⁻¹, e.g. vertical on a flat scene) keeps a large variance.
+        let s2 = (f.residual2 / dof).max(floor2);
         for (i, row) in cov.iter_mut().enumerate() {
             for (j, c) in row.iter_mut().enumerate() {
                 *c *= s2;

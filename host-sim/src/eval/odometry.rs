@@ -184,6 +184,8 @@ pub struct OdometrySummary {
     pub ego_rmse_mps: [f64; 3],
     /// Share of moving frames with an estimate, % (mean).
     pub estimated_while_moving_pct: f64,
+    /// Ego-velocity covariance consistency (mean NEES per axis, 1 = consistent; mean).
+    pub ego_nees: f64,
     /// Points per frame (mean).
     pub points_per_frame: f64,
     /// Paired DBE − FFT difference of the XYZ drift (% of the path), mean and standard
@@ -248,6 +250,7 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
                 ate_rmse_m: m(&|e| e.ate_rmse_m),
                 ego_rmse_mps: [0, 1, 2].map(|i| me(&|r| r.ego.rmse_mps[i])),
                 estimated_while_moving_pct: me(&|r| r.ego.estimated_while_moving_pct),
+                ego_nees: me(&|r| r.ego.nees),
                 points_per_frame: me(&|r| r.points_per_frame),
                 xyz_pct_minus_fft: paired.flatten(),
             });

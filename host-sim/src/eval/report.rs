@@ -610,24 +610,25 @@ fn odometry_section(m: &mut String, e: &Evaluation) {
          parameters) with the same IMU samples. Drift: the estimate aligned to the truth at its first pose \
          (position and yaw), the error at the last (uzh-rpg / the paper's end-point columns); ATE after the \
          4-DoF alignment of the whole trajectory; ego-velocity RMSE against the exact radar velocity at each \
-         frame's mean chirp time, over the frames with an estimate. Means over seeds; ± the standard \
-         deviation.\n",
+         frame's mean chirp time, over the frames with an estimate; ego NEES: the mean of eᵀΣ⁻¹e/3 of the \
+         estimates against their reported covariance (1 when the covariance is right). Means over seeds; ± \
+         the standard deviation.\n",
         c.odometry_seeds,
         c.odometry_frames
             .map_or(String::new(), |n| format!(" (first {n} frames only)"))
     );
     let _ = writeln!(
         m,
-        "| sequence | chain | path (m) | XYZ m (%) | XY m (%) | Z m (%) | yaw ° (°/m) | ATE (m) | ego RMSE x/y/z (m/s) | estimated while moving | points/frame |\n|---|---|---|---|---|---|---|---|---|---|---|"
+        "| sequence | chain | path (m) | XYZ m (%) | XY m (%) | Z m (%) | yaw ° (°/m) | ATE (m) | ego RMSE x/y/z (m/s) | ego NEES | estimated while moving | points/frame |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
     for s in &e.odometry_summary {
         let d = &s.drift;
         let _ = writeln!(
             m,
-            "| {} | {} | {:.1} | {:.2} ({:.2} ± {:.2}) | {:.2} ({:.2}) | {:.2} ({:.2}) | {:.2} ({:.3}) | {:.3} | {:.3}/{:.3}/{:.3} | {:.1} % | {:.1} |",
+            "| {} | {} | {:.1} | {:.2} ({:.2} ± {:.2}) | {:.2} ({:.2}) | {:.2} ({:.2}) | {:.2} ({:.3}) | {:.3} | {:.3}/{:.3}/{:.3} | {:.1} | {:.1} % | {:.1} |",
             s.sequence, s.variant, s.path_length_m, d.xyz_m, d.xyz_pct, s.xyz_pct_std, d.xy_m, d.xy_pct,
             d.z_m, d.z_pct, d.yaw_deg, d.yaw_deg_per_m, s.ate_rmse_m, s.ego_rmse_mps[0],
-            s.ego_rmse_mps[1], s.ego_rmse_mps[2], s.estimated_while_moving_pct, s.points_per_frame
+            s.ego_rmse_mps[1], s.ego_rmse_mps[2], s.ego_nees, s.estimated_while_moving_pct, s.points_per_frame
         );
     }
     let _ = writeln!(m, "\nPaired difference DBE − FFT of the XYZ drift (% of the path), mean ± standard deviation over seeds:\n");

@@ -93,6 +93,9 @@ pub struct EgoErrors {
     pub moving_frames: usize,
     /// Of those, the share with an estimate, %.
     pub estimated_while_moving_pct: f64,
+    /// Consistency of the reported covariances: the mean of `eᵀ·Σ⁻¹·e / 3` over the `ok`
+    /// estimates (1 for a covariance that matches the errors; above 1 it is too small).
+    pub nees: f64,
 }
 
 /// The errors of `frames`' estimates against `truth(t)`, the radar's true velocity in its own
@@ -102,6 +105,7 @@ pub fn ego_errors(
     truth: impl Fn(f64) -> Option<Vector3<f64>>,
 ) -> EgoErrors {
     let (mut sq, mut n, mut moving, mut moving_ok) = ([0.0f64; 3], 0usize, 0usize, 0usize);
+    let (mut nees, mut n_ok) = (0.0, 0usize);
     for f in frames {
         let Some(t) = truth(f.measure_time_s) else {
             continue;
@@ -111,12 +115,18 @@ pub fn ego_errors(
             moving += 1;
             moving_ok += usize::from(ok);
         }
-        if ok {
-            let v = f.ego.velocity;
-            for (i, e) in [v.x, v.y, v.z].into_iter().enumerate() {
-                sq[i] += (f64::from(e) - t[i]).powi(2);
+        if let Some(z) = f.measurement() {
+            let e = z.velocity - t;
+            for i in 0..3 {
+                sq[i] += e[i].powi(2);
             }
             n += 1;
+            if f.ego.status == EgoStatus::Ok {
+                if let Some(inv) = z.covariance.try_inverse() {
+                    nees += (e.transpose() * inv * e)[(0, 0)] / 3.0;
+                    n_ok += 1;
+                }
+            }
         }
     }
     EgoErrors {
@@ -131,6 +141,11 @@ pub fn ego_errors(
         moving_frames: moving,
         estimated_while_moving_pct: if moving > 0 {
             100.0 * moving_ok as f64 / moving as f64
+        } else {
+            f64::NAN
+        },
+        nees: if n_ok > 0 {
+            nees / n_ok as f64
         } else {
             f64::NAN
         },
