@@ -1,0 +1,175 @@
+//! README's evaluation figures are the committed report's (`docs/eval/summary.json`, written
+//! by `dbe eval --out docs/eval`): regenerating the report without updating README, or editing
+//! README's numbers by hand, fails here.
+
+use std::path::Path;
+
+use serde_json::Value;
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+fn read(relative: &str) -> Result<String, Box<dyn std::error::Error>> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(relative);
+    std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()).into())
+}
+
+fn num(v: &Value, what: &str) -> Result<f64, String> {
+    v.as_f64().ok_or_else(|| format!("summary.json: {what} is not a number: {v}"))
+}
+
+/// The headline row of `variant` in `headline.single_target_at_20_db`.
+fn single<'a>(h: &'a Value, variant: &str) -> Result<&'a Value, String> {
+    h["single_target_at_20_db"]
+        .as_array()
+        .and_then(|a| a.iter().find(|r| r["variant"] == variant))
+        .ok_or_else(|| format!("summary.json: no 20 dB row for {variant}"))
+}
+
+fn resolved(h: &Value, variant: &str, pair: &str) -> Result<f64, String> {
+    let row = h["resolution_at_resolution_snr"]
+        .as_array()
+        .and_then(|a| a.iter().find(|r| r["variant"] == variant && r["pair"] == pair))
+        .ok_or_else(|| format!("summary.json: no {pair} resolution row for {variant}"))?;
+    num(&row["probability"], "probability")
+}
+
+/// False points per noise-only frame of `variant`, as README prints it.
+fn noise(summary: &Value, variant: &str) -> Result<String, String> {
+    let row = summary["noise"]
+        .as_array()
+        .and_then(|a| a.iter().find(|r| r["variant"] == variant))
+        .ok_or_else(|| format!("summary.json: no noise row for {variant}"))?;
+    let v = num(&row["false_points_per_frame"], "false_points_per_frame")?;
+    Ok(if v == 0.0 { "0".into() } else { format!("{v:.2}") })
+}
+
+/// The Chamfer accuracy term of `variant`: the mean over the extended scenes and every
+/// resolution (the goals' definition, `eval::goals`).
+fn accuracy_term(summary: &Value, variant: &str) -> Result<f64, String> {
+    let v: Vec<f64> = summary["chamfer_all"]
+        .as_array()
+        .ok_or("summary.json has no chamfer_all")?
+        .iter()
+        .filter(|r| r["variant"] == variant && r["scene"] != "moving_sensor")
+        .filter_map(|r| r["accuracy_m"].as_f64())
+        .collect();
+    if v.is_empty() {
+        return Err(format!("no accuracy term for {variant}"));
+    }
+    Ok(v.iter().sum::<f64>() / v.len() as f64)
+}
+
+#[test]
+fn readme_headline_table_is_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let readme = read("README.md")?;
+    let h = &summary["headline"];
+    let az = |v: &str| -> Result<f64, String> { num(&single(h, v)?["az_rmse_deg"], "az_rmse_deg") };
+    let crb = num(&single(h, "dbe")?["crb_az_deg"], "crb_az_deg")?;
+    let ext = &h["extended_scenes"];
+    let ms = &h["moving_sensor_el_rmse_deg"];
+    let pct = |p: f64| format!("{:.0} %", 100.0 * p);
+    let lines = [
+        format!(
+            "| azimuth RMSE at 20 dB per-antenna SNR (CRB {crb:.3}°), grid / `--subgrid` | {:.3}° / {:.3}° | {:.3}° / {:.3}° |",
+            az("dbe")?,
+            az("dbe+subgrid")?,
+            az("fft")?,
+            az("fft+subgrid")?
+        ),
+        format!(
+            "| two non-coherent targets 8° apart at 20 dB resolved | {} | {} (by Doppler) |",
+            pct(resolved(h, "dbe", "non_coherent")?),
+            pct(resolved(h, "fft", "non_coherent")?)
+        ),
+        format!(
+            "| two coherent (static) targets 8° apart at 20 dB resolved | {} | {} |",
+            pct(resolved(h, "dbe", "coherent")?),
+            pct(resolved(h, "fft", "coherent")?)
+        ),
+        format!(
+            "| moving sensor 1.2 m/s, elevation RMSE, TDM compensation on / off | {:.2}° / {:.1}° | {:.2}° / {:.1}° |",
+            num(&ms["dbe"], "dbe")?,
+            num(&ms["dbe_no_tdm"], "dbe_no_tdm")?,
+            num(&ms["fft"], "fft")?,
+            num(&ms["fft_no_tdm"], "fft_no_tdm")?
+        ),
+        format!(
+            "| points per frame on the extended scenes | {:.1} | {:.1} |",
+            num(&ext["points_per_frame"]["dbe"], "points")?,
+            num(&ext["points_per_frame"]["fft"], "points")?
+        ),
+        format!(
+            "| false points (> 0.6 m from every object) per frame on the extended scenes | {:.2} | {:.2} |",
+            num(&ext["false_points_per_frame"]["dbe"], "false points")?,
+            num(&ext["false_points_per_frame"]["fft"], "false points")?
+        ),
+        format!(
+            "| mean Chamfer distance at 0.1 m voxels, extended scenes | {:.2} m | {:.2} m |",
+            num(&ext["mean_chamfer_m"]["dbe"], "chamfer")?,
+            num(&ext["mean_chamfer_m"]["fft"], "chamfer")?
+        ),
+        format!(
+            "| false points per noise-only frame | {} | {} |",
+            noise(&summary, "dbe")?,
+            noise(&summary, "fft")?
+        ),
+        format!(
+            "| mean distance of a point to the true surfaces (Chamfer accuracy term) | {:.3} m | {:.3} m |",
+            accuracy_term(&summary, "dbe")?,
+            accuracy_term(&summary, "fft")?
+        ),
+    ];
+    for line in &lines {
+        assert!(readme.contains(line.as_str()), "README lacks the report's line\n{line}");
+    }
+    Ok(())
+}
+
+#[test]
+fn readme_odometry_table_is_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let readme = read("README.md")?;
+    let rows = summary["odometry_summary"]
+        .as_array()
+        .ok_or("summary.json has no odometry_summary")?;
+    let find = |seq: &str, v: &str| {
+        rows.iter()
+            .find(|r| r["sequence"] == seq && r["variant"] == v)
+            .ok_or_else(|| format!("summary.json: no odometry row {seq} {v}"))
+    };
+    let seeds = summary["config"]["odometry_seeds"].as_u64().unwrap_or(0);
+    assert!(
+        readme.contains(&format!("{seeds} seeds each")),
+        "README does not say the report's {seeds} seeds"
+    );
+    for seq in ["hallways", "outdoors", "aspen", "army"] {
+        let (d, f) = (find(seq, "dbe")?, find(seq, "fft")?);
+        let paired = d["xyz_pct_minus_fft"]
+            .as_array()
+            .ok_or_else(|| format!("{seq}: no paired difference"))?;
+        let ego = |r: &Value| -> Result<String, String> {
+            let e = r["ego_rmse_mps"].as_array().ok_or("ego_rmse_mps")?;
+            Ok(format!(
+                "{:.3}/{:.3}/{:.3}",
+                num(&e[0], "x")?,
+                num(&e[1], "y")?,
+                num(&e[2], "z")?
+            ))
+        };
+        let line = format!(
+            "| {seq} | {:.1} | {:.2} | {:.2} | {:+.2} ± {:.2} | {} | {} | {:.1} / {:.1} |",
+            num(&d["path_length_m"], "path")?,
+            num(&d["drift"]["xyz_pct"], "drift")?,
+            num(&f["drift"]["xyz_pct"], "drift")?,
+            num(&paired[0], "paired mean")?,
+            num(&paired[1], "paired sd")?,
+            ego(d)?,
+            ego(f)?,
+            num(&d["points_per_frame"], "points")?,
+            num(&f["points_per_frame"], "points")?,
+        );
+        assert!(readme.contains(&line), "README lacks the report's line\n{line}");
+    }
+    Ok(())
+}
