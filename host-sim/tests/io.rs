@@ -558,8 +558,33 @@ fn sequence_missing_frames_are_listed() -> TestResult {
     let (_d, seq, s) = small_sequence();
     fs::remove_file(data_dir(&seq).join("frame_1.bin"))?;
     let e = expect_err(io::open_sequence(&seq, &s), "gap");
-    assert!(matches!(e, IoError::MissingFrames { ref missing, highest: 2, .. } if missing == &[1]));
+    assert!(
+        matches!(e, IoError::MissingFrames { ref missing, highest: 2, .. } if missing == &[(1, 1)])
+    );
     assert!(e.to_string().contains("missing frame files 1"));
+    Ok(())
+}
+
+#[test]
+fn a_stray_frame_with_a_huge_index_is_an_error_not_a_panic() -> TestResult {
+    // Fuzzing found these: the gap list overflowed `highest + 1` or tried to allocate terabytes.
+    for (name, count) in [
+        (
+            "frame_18446744073709551615.bin",
+            "18446744073709551612 missing",
+        ),
+        ("frame_1000000000000.bin", "999999999997 missing"),
+    ] {
+        let (_d, seq, s) = small_sequence();
+        fs::write(data_dir(&seq).join(name), b"")?;
+        let e = expect_err(io::open_sequence(&seq, &s), name);
+        let text = e.to_string();
+        assert!(
+            matches!(e, IoError::MissingFrames { ref missing, .. } if missing.len() == 1),
+            "{text}"
+        );
+        assert!(text.contains(count), "{text}");
+    }
     Ok(())
 }
 
@@ -1016,7 +1041,7 @@ fn pointcloud_sequence_gaps_are_rejected() -> TestResult {
     io::write_coloradar_pointclouds(&out, &input)?;
     fs::remove_file(out.join("single_chip/pointclouds/data/radar_pointcloud_0.bin"))?;
     let e = expect_err(io::read_coloradar_pointclouds(&out), "missing cloud 0");
-    assert!(matches!(e, IoError::MissingFrames { ref missing, .. } if missing == &[0]));
+    assert!(matches!(e, IoError::MissingFrames { ref missing, .. } if missing == &[(0, 0)]));
     Ok(())
 }
 

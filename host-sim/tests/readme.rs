@@ -9,12 +9,15 @@ use serde_json::Value;
 type TestResult = Result<(), Box<dyn std::error::Error>>;
 
 fn read(relative: &str) -> Result<String, Box<dyn std::error::Error>> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(relative);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join(relative);
     std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()).into())
 }
 
 fn num(v: &Value, what: &str) -> Result<f64, String> {
-    v.as_f64().ok_or_else(|| format!("summary.json: {what} is not a number: {v}"))
+    v.as_f64()
+        .ok_or_else(|| format!("summary.json: {what} is not a number: {v}"))
 }
 
 /// The headline row of `variant` in `headline.single_target_at_20_db`.
@@ -28,7 +31,10 @@ fn single<'a>(h: &'a Value, variant: &str) -> Result<&'a Value, String> {
 fn resolved(h: &Value, variant: &str, pair: &str) -> Result<f64, String> {
     let row = h["resolution_at_resolution_snr"]
         .as_array()
-        .and_then(|a| a.iter().find(|r| r["variant"] == variant && r["pair"] == pair))
+        .and_then(|a| {
+            a.iter()
+                .find(|r| r["variant"] == variant && r["pair"] == pair)
+        })
         .ok_or_else(|| format!("summary.json: no {pair} resolution row for {variant}"))?;
     num(&row["probability"], "probability")
 }
@@ -40,7 +46,11 @@ fn noise(summary: &Value, variant: &str) -> Result<String, String> {
         .and_then(|a| a.iter().find(|r| r["variant"] == variant))
         .ok_or_else(|| format!("summary.json: no noise row for {variant}"))?;
     let v = num(&row["false_points_per_frame"], "false_points_per_frame")?;
-    Ok(if v == 0.0 { "0".into() } else { format!("{v:.2}") })
+    Ok(if v == 0.0 {
+        "0".into()
+    } else {
+        format!("{v:.2}")
+    })
 }
 
 /// The Chamfer accuracy term of `variant`: the mean over the extended scenes and every
@@ -121,7 +131,10 @@ fn readme_headline_table_is_the_committed_report() -> TestResult {
         ),
     ];
     for line in &lines {
-        assert!(readme.contains(line.as_str()), "README lacks the report's line\n{line}");
+        assert!(
+            readme.contains(line.as_str()),
+            "README lacks the report's line\n{line}"
+        );
     }
     Ok(())
 }
@@ -169,7 +182,10 @@ fn readme_odometry_table_is_the_committed_report() -> TestResult {
             num(&d["points_per_frame"], "points")?,
             num(&f["points_per_frame"], "points")?,
         );
-        assert!(readme.contains(&line), "README lacks the report's line\n{line}");
+        assert!(
+            readme.contains(&line),
+            "README lacks the report's line\n{line}"
+        );
     }
     Ok(())
 }

@@ -71,16 +71,23 @@ pub(crate) fn list_indexed(dir: &Path, prefix: &str) -> Result<Vec<PathBuf>, IoE
     }
     found.sort();
     let highest = found[found.len() - 1].0;
-    if highest + 1 != found.len() {
-        let mut missing = Vec::new();
-        let mut next = 0;
+    // Indices are distinct, so they run 0..n exactly when the highest is n − 1 (no `+ 1`: a
+    // stray frame_18446744073709551615.bin must not overflow).
+    if highest != found.len() - 1 {
+        let (mut missing, mut missing_count, mut next) = (Vec::new(), 0usize, 0usize);
         for &(i, _) in &found {
-            missing.extend(next..i);
-            next = i + 1;
+            if i > next {
+                missing_count += i - next;
+                if missing.len() < super::MAX_LISTED_GAPS {
+                    missing.push((next, i - 1));
+                }
+            }
+            next = i.saturating_add(1);
         }
         return Err(IoError::MissingFrames {
             dir: dir.to_path_buf(),
             missing,
+            missing_count,
             found: found.len(),
             highest,
         });

@@ -103,12 +103,14 @@ pub enum IoError {
         expected: String,
     },
     /// Frame files are missing from a sequence: indices must run `0..count` without gaps.
-    #[error("{}: missing frame files {} (found {found} files, highest index {highest}; frames must be numbered 0..N without gaps)", dir.display(), IndexList(missing))]
+    #[error("{}: missing frame files {}{} ({missing_count} missing; found {found} files, highest index {highest}; frames must be numbered 0..N without gaps)", dir.display(), IndexList(missing), if missing.len() >= MAX_LISTED_GAPS { ", …" } else { "" })]
     MissingFrames {
         /// The `data` directory.
         dir: PathBuf,
-        /// The missing indices, ascending.
-        missing: Vec<usize>,
+        /// The first [`MAX_LISTED_GAPS`] runs of missing indices, ascending, inclusive.
+        missing: Vec<(usize, usize)>,
+        /// Missing indices in all.
+        missing_count: usize,
         /// Frame files found.
         found: usize,
         /// Highest index found.
@@ -170,30 +172,24 @@ impl IoError {
     }
 }
 
-/// Displays ascending indices compactly: `3, 5-9, 12`.
-struct IndexList<'a>(&'a [usize]);
+/// Most runs of missing frame indices an error lists (a stray `frame_<huge>.bin` leaves one
+/// run of up to 2⁶⁴ indices; listing stays bounded whatever the names).
+pub const MAX_LISTED_GAPS: usize = 8;
+
+/// Displays ascending inclusive runs of indices compactly: `3, 5-9, 12`.
+struct IndexList<'a>(&'a [(usize, usize)]);
 
 impl fmt::Display for IndexList<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let mut i = 0;
-        let mut first = true;
-        while i < self.0.len() {
-            let start = self.0[i];
-            let mut end = start;
-            while i + 1 < self.0.len() && self.0[i + 1] == end + 1 {
-                i += 1;
-                end += 1;
-            }
-            if !first {
+        for (k, &(start, end)) in self.0.iter().enumerate() {
+            if k > 0 {
                 f.write_str(", ")?;
             }
-            first = false;
             if end == start {
                 write!(f, "{start}")?;
             } else {
                 write!(f, "{start}-{end}")?;
             }
-            i += 1;
         }
         Ok(())
     }
@@ -248,7 +244,10 @@ mod tests {
 
     #[test]
     fn index_list_compresses_runs() {
-        assert_eq!(IndexList(&[1, 3, 4, 5, 9]).to_string(), "1, 3-5, 9");
+        assert_eq!(
+            IndexList(&[(1, 1), (3, 5), (9, 9)]).to_string(),
+            "1, 3-5, 9"
+        );
         assert_eq!(IndexList(&[]).to_string(), "");
     }
 
