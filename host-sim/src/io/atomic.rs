@@ -10,8 +10,10 @@
 //!   `StagedDir` (an error return or a panic) deletes the staging tree.
 //!
 //! A process killed by a signal or a power cut can leave a hidden temporary sibling behind; the
-//! target itself is never partial. Parent directories of the target are created as needed and
-//! are not removed on failure.
+//! target itself is never partial. The next write to the same target removes such leftovers
+//! of its own name whose process no longer runs (on Linux, where `/proc` tells; elsewhere they
+//! stay). Parent directories of the target are created as needed and are not removed on
+//! failure.
 
 use std::fs;
 use std::io::Write;
@@ -39,6 +41,48 @@ fn sibling(target: &Path, tag: &str) -> Result<PathBuf, IoError> {
     Ok(target.with_file_name(hidden))
 }
 
+/// Whether process `pid` is known to have ended (Linux: no `/proc/PID`); `false` when this
+/// cannot be told.
+fn process_ended(pid: u32) -> bool {
+    cfg!(target_os = "linux")
+        && Path::new("/proc").is_dir()
+        && !Path::new("/proc").join(pid.to_string()).exists()
+}
+
+/// Remove `.NAME.<tag>-PID-N` siblings of `target` left by processes that have ended (a run
+/// killed mid-way). Best effort: what cannot be listed or removed stays.
+fn remove_stale_siblings(target: &Path, tag: &str) {
+    let (Some(name), Some(parent)) = (target.file_name(), target.parent()) else {
+        return;
+    };
+    let parent = if parent.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        parent
+    };
+    let prefix = format!(".{}.{tag}-", name.to_string_lossy());
+    let Ok(entries) = fs::read_dir(parent) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let Some(rest) = file_name.to_str().and_then(|n| n.strip_prefix(&prefix)) else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        if pid != std::process::id() && process_ended(pid) {
+            let path = entry.path();
+            let _ = if path.is_dir() {
+                fs::remove_dir_all(&path)
+            } else {
+                fs::remove_file(&path)
+            };
+        }
+    }
+}
+
 /// Parent directory of `target` (`.` for a bare name), created if missing.
 fn ensure_parent(target: &Path) -> Result<(), IoError> {
     match target.parent() {
@@ -53,6 +97,7 @@ fn ensure_parent(target: &Path) -> Result<(), IoError> {
 /// `path`. On error the temporary is removed and `path` is untouched.
 pub fn write_file_atomic(path: &Path, contents: &[u8]) -> Result<(), IoError> {
     ensure_parent(path)?;
+    remove_stale_siblings(path, "tmp");
     let tmp = sibling(path, "tmp")?;
     let result = (|| {
         let mut f = fs::File::create(&tmp).map_err(|e| IoError::os(&tmp, "create", e))?;
@@ -105,6 +150,7 @@ impl StagedDir {
     pub fn new(target: &Path) -> Result<Self, IoError> {
         check_target_free(target)?;
         ensure_parent(target)?;
+        remove_stale_siblings(target, "partial");
         let staging = sibling(target, "partial")?;
         fs::create_dir(&staging).map_err(|e| IoError::os(&staging, "create directory", e))?;
         Ok(Self {
@@ -189,6 +235,31 @@ mod tests {
             StagedDir::new(&target),
             Err(IoError::OutputExists { .. })
         ));
+        Ok(())
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn leftovers_of_killed_runs_are_removed_by_the_next_run() -> Result<(), IoError> {
+        let tmp = tempfile::tempdir().map_err(|e| IoError::os(Path::new("tmp"), "create", e))?;
+        let target = tmp.path().join("out");
+        // A pid above the kernel's maximum (2²²) never runs; this process's own is alive.
+        let dead = tmp.path().join(".out.partial-4194400-0");
+        let alive = tmp
+            .path()
+            .join(format!(".out.partial-{}-99", std::process::id()));
+        let other = tmp.path().join(".other.partial-4194400-0");
+        for d in [&dead, &alive, &other] {
+            create_dir(&d.join("single_chip"))?;
+            write_plain(&d.join("single_chip/x.bin"), b"x")?;
+        }
+        let s = StagedDir::new(&target)?;
+        s.commit()?;
+        assert!(!dead.exists(), "a dead run's staging tree stays");
+        assert!(
+            alive.exists() && other.exists(),
+            "a live run's or another target's is removed"
+        );
         Ok(())
     }
 }
