@@ -457,3 +457,27 @@ fn evo_reads(out: &Path, ate_posyaw_m: f64) {
         "evo {rmse} vs ours {ate_posyaw_m}"
     );
 }
+
+#[test]
+fn a_run_with_no_points_in_any_frame_says_so() -> TestResult {
+    // Noise only: the defaults' CFAR gives no point (tests/robustness.rs), which a user with a
+    // wrong calibration sees too.
+    let dir = tempfile::tempdir()?;
+    let scene = dir.path().join("empty.toml");
+    std::fs::write(&scene, "name = \"empty\"\nseed = 1\n")?;
+    let seq = dir.path().join("seq");
+    ok(&[
+        "simulate",
+        "--scene",
+        s(&scene),
+        "--frames",
+        "2",
+        "--out",
+        s(&seq),
+    ]);
+    let o = dbe(&["process", s(&seq), "--out", s(&dir.path().join("out"))]);
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("no points in any of the 2 frames"), "{err}");
+    Ok(())
+}

@@ -177,6 +177,37 @@ fn calib_tolerates_unknown_keys_comments_and_adc_start_time() -> TestResult {
 }
 
 #[test]
+fn waveform_values_in_the_wrong_unit_are_errors_naming_the_likely_unit() {
+    // TI's tools write GHz, MHz/µs, ksps and µs; waveform_cfg.txt is SI. Each of these ran
+    // before and gave 0 points in every frame.
+    for (key, line, unit) in [
+        ("start_frequency", "start_frequency 77", "GHz"),
+        ("frequency_slope", "frequency_slope 100", "MHz/µs"),
+        ("adc_sample_frequency", "adc_sample_frequency 10666", "ksps"),
+        ("idle_time", "idle_time 110", "µs"),
+        ("ramp_end_time", "ramp_end_time 20", "µs"),
+        ("start_frequency", "start_frequency 1e300", ""),
+        ("frequency_slope", "frequency_slope 1e-30", ""),
+        ("adc_sample_frequency", "adc_sample_frequency 1e300", ""),
+    ] {
+        let Some((_d, calib)) = edited_calib("waveform_cfg.txt", |t| replace_line(t, key, line))
+        else {
+            return;
+        };
+        let e = expect_err(io::load_calib(&calib), line).to_string();
+        assert!(
+            e.contains("waveform_cfg.txt")
+                && e.contains(key)
+                && e.contains("outside what FMCW radars use"),
+            "{line}: {e}"
+        );
+        if !unit.is_empty() {
+            assert!(e.contains(&format!("looks like {unit}")), "{line}: {e}");
+        }
+    }
+}
+
+#[test]
 fn calib_missing_required_key_names_key_and_file() {
     for key in [
         "num_rx",

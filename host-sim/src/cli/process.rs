@@ -204,6 +204,15 @@ pub fn run(args: &ProcessArgs) -> Result<()> {
         points as f64 / results.len().max(1) as f64,
         args.out.display()
     );
+    if points == 0 && !results.is_empty() {
+        eprintln!(
+            "warning: no points in any of the {} frames; check the calibration ({}): a waveform \
+             or antenna layout that does not match the recording, or a CFAR threshold too high \
+             (--cfar-threshold-db), gives none",
+            results.len(),
+            opened.calib_source
+        );
+    }
     if skipped > 0 || overflow > 0 {
         println!("note: {skipped} range bins skipped (covariance not positive definite), {overflow} detections/points over capacity");
     }

@@ -109,6 +109,67 @@ fn index(path: &Path, line: usize, what: &str, token: &str) -> Result<usize, IoE
         })
 }
 
+/// What FMCW radars can do, per `waveform_cfg.txt` key (SI units): the lowest and highest
+/// plausible value, the unit, and the units a value off by a power of ten was likely written
+/// in (`(SI value of one such unit, its name)`), TI's tools and datasheets among them.
+const PLAUSIBLE: [(&str, f64, f64, &str, &[(f64, &str)]); 6] = [
+    (
+        "start_frequency",
+        1e9,
+        300e9,
+        "Hz",
+        &[(1e9, "GHz"), (1e6, "MHz")],
+    ),
+    (
+        "frequency_slope",
+        1e11,
+        1e15,
+        "Hz/s",
+        &[(1e12, "MHz/µs"), (1e9, "kHz/µs")],
+    ),
+    (
+        "adc_sample_frequency",
+        1e5,
+        1e9,
+        "Hz",
+        &[(1e6, "Msps"), (1e3, "ksps")],
+    ),
+    ("idle_time", 0.0, 1e-2, "s", &[(1e-6, "µs"), (1e-3, "ms")]),
+    (
+        "ramp_end_time",
+        1e-7,
+        1e-2,
+        "s",
+        &[(1e-6, "µs"), (1e-3, "ms")],
+    ),
+    ("adc_start_time", 0.0, 1e-3, "s", &[(1e-6, "µs")]),
+];
+
+/// Check `value` of `key` against [`PLAUSIBLE`]; the error names the likely unit.
+fn plausible(path: &Path, line: usize, key: &str, value: f64) -> Result<(), IoError> {
+    let Some(&(_, lo, hi, unit, hints)) = PLAUSIBLE.iter().find(|p| p.0 == key) else {
+        return Ok(());
+    };
+    if (lo..=hi).contains(&value) {
+        return Ok(());
+    }
+    let hint = hints
+        .iter()
+        .find(|(scale, _)| (lo..=hi).contains(&(value * scale)))
+        .map(|(scale, name)| {
+            format!(
+                "; it looks like {name}: this file is in SI units, write {:e}",
+                value * scale
+            )
+        })
+        .unwrap_or_default();
+    Err(IoError::syntax(
+        path,
+        line,
+        format!("`{key}` = {value} {unit} is outside what FMCW radars use ({lo:e} to {hi:e} {unit}){hint}"),
+    ))
+}
+
 /// Parse `waveform_cfg.txt` text; `path` names the file in errors.
 pub fn parse_waveform_cfg(path: &Path, text: &str) -> Result<WaveformCfg, IoError> {
     const KEYS: [&str; 10] = [
@@ -170,6 +231,7 @@ pub fn parse_waveform_cfg(path: &Path, text: &str) -> Result<WaveformCfg, IoErro
         let (l, t) = get(key)?;
         let v = number(path, l, key, t)?;
         if v > 0.0 || (allow_zero && v == 0.0) {
+            plausible(path, l, key, v)?;
             Ok(v)
         } else {
             let rule = if allow_zero { "≥ 0" } else { "> 0" };
