@@ -112,7 +112,16 @@ fn index(path: &Path, line: usize, what: &str, token: &str) -> Result<usize, IoE
 /// What FMCW radars can do, per `waveform_cfg.txt` key (SI units): the lowest and highest
 /// plausible value, the unit, and the units a value off by a power of ten was likely written
 /// in (`(SI value of one such unit, its name)`), TI's tools and datasheets among them.
-const PLAUSIBLE: [(&str, f64, f64, &str, &[(f64, &str)]); 6] = [
+/// `(key, lowest, highest, unit, [(SI value of one likely wrong unit, its name)])`.
+type Plausible = (
+    &'static str,
+    f64,
+    f64,
+    &'static str,
+    &'static [(f64, &'static str)],
+);
+
+const PLAUSIBLE: [Plausible; 6] = [
     (
         "start_frequency",
         1e9,
