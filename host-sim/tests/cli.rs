@@ -481,3 +481,53 @@ fn a_run_with_no_points_in_any_frame_says_so() -> TestResult {
     assert!(err.contains("no points in any of the 2 frames"), "{err}");
     Ok(())
 }
+
+#[test]
+fn every_process_run_leaves_a_record_and_quiet_prints_nothing() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let seq = simulated(dir.path(), "moving_sensor", "3");
+    let out = dir.path().join("out");
+    let o = dbe(&[
+        "process",
+        s(&seq),
+        "--out",
+        s(&out),
+        "--frames",
+        "1..3",
+        "--format",
+        "csv",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.stdout.is_empty(),
+        "--quiet printed {:?}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json"))?)?;
+    assert_eq!(run["chain"], "dbe");
+    assert_eq!(run["frames"]["first_input_index"], 1);
+    assert_eq!(run["frames"]["count"], 2);
+    let per_frame = run["points_per_frame"]
+        .as_array()
+        .ok_or("points_per_frame")?;
+    assert_eq!(per_frame.len(), 2);
+    let total: u64 = per_frame.iter().filter_map(|v| v.as_u64()).sum();
+    assert_eq!(run["points_total"].as_u64(), Some(total));
+    // The calibration beside the sequence, each file with its SHA-256.
+    let files = run["calibration"]["files"].as_array().ok_or("files")?;
+    assert!(files.len() >= 2, "{files:?}");
+    for f in files {
+        let h = f["sha256"].as_str().ok_or("sha256")?;
+        assert!(
+            h.len() == 64 && h.chars().all(|c| c.is_ascii_hexdigit()),
+            "{h}"
+        );
+    }
+    assert!(run["frames_per_second"].as_f64().is_some_and(|v| v > 0.0));
+    // Without --quiet, one summary line with the time and the rate.
+    let stdout = ok(&["process", s(&seq), "--out", s(&dir.path().join("out2"))]);
+    assert!(stdout.contains("frames/s"), "{stdout}");
+    Ok(())
+}

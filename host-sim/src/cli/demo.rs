@@ -91,7 +91,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         &params,
         Pipeline::Dbe,
         0..args.frames,
-        "process",
+        Some("process"),
     )?;
     write_outputs(
         &root.join("pointclouds"),

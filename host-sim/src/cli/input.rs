@@ -28,6 +28,8 @@ pub struct Opened {
     pub input: Input,
     pub sensor: SensorConfig,
     pub calib_source: String,
+    /// The calibration folder used, if any (none: the built-in values).
+    pub calib_dir: Option<PathBuf>,
 }
 
 impl Input {
@@ -58,16 +60,22 @@ impl Input {
                 refuse_headerless_capture(path, dir)?;
             }
         }
-        let (sensor, calib_source) = match calib {
-            Some(dir) => (load_calib(dir)?, dir.display().to_string()),
+        let (sensor, calib_source, calib_dir) = match calib {
+            Some(dir) => (
+                load_calib(dir)?,
+                dir.display().to_string(),
+                Some(dir.to_path_buf()),
+            ),
             None => match beside.filter(|d| has_calib(d)) {
                 Some(dir) => (
                     load_calib(&dir)?,
                     format!("{} (found beside the input)", dir.display()),
+                    Some(dir),
                 ),
                 None => (
                     SensorConfig::coloradar(),
                     "built-in ColoRadar single-chip values".to_string(),
+                    None,
                 ),
             },
         };
@@ -87,6 +95,7 @@ impl Input {
             input,
             sensor,
             calib_source,
+            calib_dir,
         })
     }
 

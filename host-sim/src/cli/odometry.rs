@@ -133,7 +133,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         &params,
         args.pipeline,
         0..opened.input.len(),
-        "odometry",
+        Some("odometry"),
     )?;
     let per_frame: Vec<(f64, &[host_sim::cloud::PointRecord])> = results
         .iter()

@@ -62,6 +62,9 @@ pub struct ProcessArgs {
     pub frames: Option<String>,
     #[command(flatten)]
     pub params: ParamArgs,
+    /// Print nothing but errors and warnings (no header, progress bar or summary line).
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 /// Points of one frame.
@@ -72,21 +75,25 @@ pub struct FrameResult {
     pub stats: dbe_radar::FrameStats,
 }
 
-/// Run the chosen chain on frames `range` of `input`, in parallel, with a progress bar.
+/// Run the chosen chain on frames `range` of `input`, in parallel, with a progress bar named
+/// `label` (none: no bar).
 pub fn run_frames(
     input: &Input,
     sensor: &SensorConfig,
     params: &dbe_radar::Params,
     pipeline: Pipeline,
     range: std::ops::Range<usize>,
-    label: &str,
+    label: Option<&str>,
 ) -> Result<Vec<FrameResult>> {
     let chain = match pipeline {
         Pipeline::Dbe => Chain::Dbe,
         Pipeline::Fft => Chain::Fft,
     };
     CoreRunner::with_chain(sensor, *params, chain).context("configuring the core")?;
-    let bar = progress(range.len() as u64, label);
+    let bar = match label {
+        Some(l) => progress(range.len() as u64, l),
+        None => ProgressBar::hidden(),
+    };
     let results: Vec<Result<FrameResult>> = range
         .into_par_iter()
         .progress_with(bar.clone())
@@ -165,31 +172,110 @@ pub fn write_outputs(dir: &Path, results: &[FrameResult], formats: &[Format]) ->
     Ok(())
 }
 
+/// The calibration files of `dir` (a ColoRadar `calib` folder or a folder of the files) with
+/// their SHA-256, for the run record.
+fn calibration_files(dir: &Path) -> Result<Vec<serde_json::Value>> {
+    use sha2::{Digest, Sha256};
+    let base = if dir.join("single_chip").is_dir() {
+        dir.join("single_chip")
+    } else {
+        dir.to_path_buf()
+    };
+    let mut out = Vec::new();
+    for name in ["waveform_cfg.txt", "antenna_cfg.txt", "coupling_calib.txt"] {
+        let path = base.join(name);
+        if path.is_file() {
+            let bytes = fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+            let hash: String = Sha256::digest(&bytes)
+                .iter()
+                .map(|b| format!("{b:02x}"))
+                .collect();
+            out.push(serde_json::json!({"path": path.display().to_string(), "sha256": hash}));
+        }
+    }
+    Ok(out)
+}
+
+/// `OUT/run.json`: what ran, on what, with which parameters, and what came out.
+fn run_record(
+    args: &ProcessArgs,
+    opened: &super::input::Opened,
+    params: &dbe_radar::Params,
+    range: &std::ops::Range<usize>,
+    results: &[FrameResult],
+    elapsed_s: f64,
+) -> Result<serde_json::Value> {
+    let points: Vec<usize> = results.iter().map(|r| r.points.len()).collect();
+    let files = match &opened.calib_dir {
+        Some(d) => calibration_files(d)?,
+        None => Vec::new(),
+    };
+    Ok(serde_json::json!({
+        "tool": "dbe process",
+        "version": env!("CARGO_PKG_VERSION"),
+        "input": args.input.display().to_string(),
+        "chain": format!("{:?}", args.pipeline).to_lowercase(),
+        "formats": args.format.iter().map(|f| format!("{f:?}").to_lowercase()).collect::<Vec<_>>(),
+        "parameters": {
+            "tdm_compensation": params.tdm_compensation,
+            "subgrid": params.subgrid,
+            "cfar_threshold_db": params.cfar.threshold_db,
+            "loading": params.loading,
+            "all": format!("{params:?}"),
+        },
+        "calibration": {"source": opened.calib_source, "files": files},
+        "sensor": {
+            "samples": opened.sensor.samples,
+            "loops": opened.sensor.loops,
+            "tx": opened.sensor.num_tx,
+            "rx": opened.sensor.num_rx,
+        },
+        "frames": {
+            "first_input_index": range.start,
+            "count": results.len(),
+            "numbering": "coloradar files count from 0 (their timestamps.txt lists the selected frames); csv, pcd and ply files keep the input's frame index",
+        },
+        "points_total": points.iter().sum::<usize>(),
+        "points_per_frame": points,
+        "elapsed_s": elapsed_s,
+        "frames_per_second": results.len() as f64 / elapsed_s.max(1e-9),
+    }))
+}
+
 /// `dbe process`.
 pub fn run(args: &ProcessArgs) -> Result<()> {
     let opened = Input::open(&args.input, args.calib.as_deref())?;
     let range = frame_range(args.frames.as_deref(), opened.input.len())?;
     let params = args.params.to_params(&opened.sensor)?;
-    eprintln!(
-        "{}: {} frames of {}×{} ({} TX × {} RX), calibration: {}",
-        args.input.display(),
-        range.len(),
-        opened.sensor.samples,
-        opened.sensor.loops,
-        opened.sensor.num_tx,
-        opened.sensor.num_rx,
-        opened.calib_source
-    );
+    let started = std::time::Instant::now();
+    if !args.quiet {
+        eprintln!(
+            "{}: {} frames of {}×{} ({} TX × {} RX), calibration: {}",
+            args.input.display(),
+            range.len(),
+            opened.sensor.samples,
+            opened.sensor.loops,
+            opened.sensor.num_tx,
+            opened.sensor.num_rx,
+            opened.calib_source
+        );
+    }
     let staged = StagedDir::new(&args.out)?;
     let results = run_frames(
         &opened.input,
         &opened.sensor,
         &params,
         args.pipeline,
-        range,
-        "process",
+        range.clone(),
+        (!args.quiet).then_some("process"),
     )?;
     write_outputs(staged.path(), &results, &args.format)?;
+    let elapsed_s = started.elapsed().as_secs_f64();
+    let record = run_record(args, &opened, &params, &range, &results, elapsed_s)?;
+    write_file_atomic(
+        &staged.path().join("run.json"),
+        serde_json::to_string_pretty(&record)?.as_bytes(),
+    )?;
     staged.commit()?;
     let points: usize = results.iter().map(|r| r.points.len()).sum();
     let skipped: u32 = results.iter().map(|r| r.stats.skipped_range_bins).sum();
@@ -197,13 +283,17 @@ pub fn run(args: &ProcessArgs) -> Result<()> {
         .iter()
         .map(|r| r.stats.detection_overflow + r.stats.point_overflow)
         .sum();
-    println!(
-        "{} frames → {} points ({:.1} per frame) in {}",
-        results.len(),
-        points,
-        points as f64 / results.len().max(1) as f64,
-        args.out.display()
-    );
+    if !args.quiet {
+        println!(
+            "{} frames → {} points ({:.1} per frame) in {:.2} s ({:.0} frames/s) → {}",
+            results.len(),
+            points,
+            points as f64 / results.len().max(1) as f64,
+            elapsed_s,
+            results.len() as f64 / elapsed_s.max(1e-9),
+            args.out.display()
+        );
+    }
     if points == 0 && !results.is_empty() {
         eprintln!(
             "warning: no points in any of the {} frames; check the calibration ({}): a waveform \
