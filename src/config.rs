@@ -89,16 +89,45 @@ impl Waveform {
         self.wavelength_m(samples) / (2.0 * loops as f64 * self.loop_period_s(num_tx))
     }
 
+    /// Every value inside what FMCW radars can do ([`limits`]), so that every derived
+    /// quantity (bin sizes, wavelengths, phases) is finite and meaningful.
     pub(crate) fn validate(&self) -> Result<(), ConfigError> {
-        positive(self.adc_sample_rate_hz, Param::AdcSampleRate)?;
-        positive(self.slope_hz_per_s, Param::Slope)?;
-        positive(self.start_frequency_hz, Param::StartFrequency)?;
-        finite(self.idle_time_s, Param::IdleTime)?;
-        if self.idle_time_s < 0.0 {
-            return Err(ConfigError::OutOfRange(Param::IdleTime));
-        }
-        positive(self.ramp_end_time_s, Param::RampEndTime)
+        within(
+            self.adc_sample_rate_hz,
+            limits::ADC_SAMPLE_RATE_HZ,
+            Param::AdcSampleRate,
+        )?;
+        within(self.slope_hz_per_s, limits::SLOPE_HZ_PER_S, Param::Slope)?;
+        within(
+            self.start_frequency_hz,
+            limits::START_FREQUENCY_HZ,
+            Param::StartFrequency,
+        )?;
+        within(self.idle_time_s, limits::IDLE_TIME_S, Param::IdleTime)?;
+        within(
+            self.ramp_end_time_s,
+            limits::RAMP_END_TIME_S,
+            Param::RampEndTime,
+        )
     }
+}
+
+/// What FMCW radars can do: the closed range each configured value must lie in, SI units.
+/// Wide enough for every single-chip radar from 24 to 300 GHz; narrow enough that an accepted
+/// configuration cannot produce a non-finite bin size, wavelength or phase.
+pub mod limits {
+    /// ADC sample rate, Hz (100 ksps to 1 Gsps).
+    pub const ADC_SAMPLE_RATE_HZ: (f64, f64) = (1e5, 1e9);
+    /// Chirp slope, Hz/s (0.1 to 1000 MHz/µs).
+    pub const SLOPE_HZ_PER_S: (f64, f64) = (1e11, 1e15);
+    /// Ramp start frequency, Hz (1 to 300 GHz).
+    pub const START_FREQUENCY_HZ: (f64, f64) = (1e9, 300e9);
+    /// Idle time before a ramp, s (0 to 10 ms).
+    pub const IDLE_TIME_S: (f64, f64) = (0.0, 1e-2);
+    /// Ramp end time, s (100 ns to 10 ms).
+    pub const RAMP_END_TIME_S: (f64, f64) = (1e-7, 1e-2);
+    /// Frequency of the antenna layout's half-wavelength unit, Hz (1 to 300 GHz).
+    pub const DESIGN_FREQUENCY_HZ: (f64, f64) = (1e9, 300e9);
 }
 
 /// Antenna positions in half-wavelength units at `f_design_hz` (ColoRadar's `antenna_cfg.txt`).
@@ -172,7 +201,11 @@ impl<const TX: usize, const RX: usize, const M: usize> ArrayLayout<TX, RX, M> {
             finite(f64::from(a), Param::AntennaPosition)?;
             finite(f64::from(e), Param::AntennaPosition)?;
         }
-        positive(geometry.f_design_hz, Param::DesignFrequency)?;
+        within(
+            geometry.f_design_hz,
+            limits::DESIGN_FREQUENCY_HZ,
+            Param::DesignFrequency,
+        )?;
 
         // Virtual positions in data order m = t·RX + r.
         let mut pos = [(0.0f32, 0.0f32, 0u8, 0u8); M];
@@ -364,9 +397,10 @@ pub(crate) fn finite(v: f64, p: Param) -> Result<(), ConfigError> {
     }
 }
 
-pub(crate) fn positive(v: f64, p: Param) -> Result<(), ConfigError> {
+/// A finite `v` inside the closed range `(lo, hi)`.
+pub(crate) fn within(v: f64, (lo, hi): (f64, f64), p: Param) -> Result<(), ConfigError> {
     finite(v, p)?;
-    if v > 0.0 {
+    if v >= lo && v <= hi {
         Ok(())
     } else {
         Err(ConfigError::OutOfRange(p))

@@ -96,6 +96,107 @@ fn config_errors_name_the_parameter() {
 }
 
 #[test]
+fn finite_but_absurd_configurations_are_refused() {
+    // Found by fuzzing: each passed validation and gave inf/NaN points or silently none.
+    let w = Waveform::COLORADAR;
+    let g = AntennaGeometry::COLORADAR;
+    let d = Params::defaults(p::SAMPLES);
+    let refused = |w: Waveform, g: AntennaGeometry<3, 4>| dbe_for(w, g, d).err();
+    let cases = [
+        (
+            Waveform {
+                slope_hz_per_s: 1e-30,
+                ..w
+            },
+            Param::Slope,
+        ),
+        (
+            Waveform {
+                adc_sample_rate_hz: 1e300,
+                ..w
+            },
+            Param::AdcSampleRate,
+        ),
+        (
+            Waveform {
+                start_frequency_hz: 1e300,
+                ..w
+            },
+            Param::StartFrequency,
+        ),
+        (
+            Waveform {
+                start_frequency_hz: 77.0,
+                ..w
+            },
+            Param::StartFrequency,
+        ),
+        (
+            Waveform {
+                idle_time_s: 0.0,
+                ramp_end_time_s: 1e-300,
+                ..w
+            },
+            Param::RampEndTime,
+        ),
+        (
+            Waveform {
+                idle_time_s: -1e-6,
+                ..w
+            },
+            Param::IdleTime,
+        ),
+    ];
+    for (bad, param) in cases {
+        assert_eq!(
+            refused(bad, g),
+            Some(ConfigError::OutOfRange(param)),
+            "{bad:?}"
+        );
+    }
+    let tiny = AntennaGeometry {
+        f_design_hz: 1e-300,
+        ..g
+    };
+    assert_eq!(
+        refused(w, tiny),
+        Some(ConfigError::OutOfRange(Param::DesignFrequency))
+    );
+}
+
+#[test]
+fn every_accepted_waveform_has_finite_bins() {
+    // The corners of the limits: whatever validation accepts gives finite, positive bin sizes
+    // and wavelengths, so no point can be non-finite because of the configuration.
+    use dbe_radar::config::limits as l;
+    let g = AntennaGeometry::COLORADAR;
+    let d = Params::defaults(p::SAMPLES);
+    for fs in [l::ADC_SAMPLE_RATE_HZ.0, l::ADC_SAMPLE_RATE_HZ.1] {
+        for slope in [l::SLOPE_HZ_PER_S.0, l::SLOPE_HZ_PER_S.1] {
+            for f0 in [l::START_FREQUENCY_HZ.0, l::START_FREQUENCY_HZ.1] {
+                for ramp in [l::RAMP_END_TIME_S.0, l::RAMP_END_TIME_S.1] {
+                    let w = Waveform {
+                        adc_sample_rate_hz: fs,
+                        slope_hz_per_s: slope,
+                        start_frequency_hz: f0,
+                        idle_time_s: 0.0,
+                        ramp_end_time_s: ramp,
+                    };
+                    assert!(dbe_for(w, g, d).is_ok(), "{w:?} refused");
+                    for v in [
+                        w.range_bin_m(p::SAMPLES),
+                        w.doppler_bin_mps(p::SAMPLES, p::LOOPS, p::TX),
+                        w.wavelength_m(p::SAMPLES),
+                    ] {
+                        assert!(v.is_finite() && v > 0.0, "{w:?}: {v}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
 fn the_fixture_geometry_puts_tx1_on_the_elevation_row() {
     let (d, _) = dbe_for(
         Waveform::IWR6843_FIXTURE,

@@ -16,6 +16,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use dbe_radar::config::limits;
 use dbe_radar::Waveform;
 use num_complex::Complex32;
 
@@ -109,54 +110,54 @@ fn index(path: &Path, line: usize, what: &str, token: &str) -> Result<usize, IoE
         })
 }
 
-/// What FMCW radars can do, per `waveform_cfg.txt` key (SI units): the lowest and highest
-/// plausible value, the unit, and the units a value off by a power of ten was likely written
-/// in (`(SI value of one such unit, its name)`), TI's tools and datasheets among them.
-/// `(key, lowest, highest, unit, [(SI value of one likely wrong unit, its name)])`.
+/// `(key, (lowest, highest), unit, [(SI value of one likely wrong unit, its name)])`.
 type Plausible = (
     &'static str,
-    f64,
-    f64,
+    (f64, f64),
     &'static str,
     &'static [(f64, &'static str)],
 );
 
+/// The range each `waveform_cfg.txt` value must lie in: the core's limits
+/// ([`dbe_radar::config::limits`]; the ADC start time is the host's own), with the units TI's
+/// tools and datasheets write the same values in.
 const PLAUSIBLE: [Plausible; 6] = [
     (
         "start_frequency",
-        1e9,
-        300e9,
+        limits::START_FREQUENCY_HZ,
         "Hz",
         &[(1e9, "GHz"), (1e6, "MHz")],
     ),
     (
         "frequency_slope",
-        1e11,
-        1e15,
+        limits::SLOPE_HZ_PER_S,
         "Hz/s",
         &[(1e12, "MHz/µs"), (1e9, "kHz/µs")],
     ),
     (
         "adc_sample_frequency",
-        1e5,
-        1e9,
+        limits::ADC_SAMPLE_RATE_HZ,
         "Hz",
         &[(1e6, "Msps"), (1e3, "ksps")],
     ),
-    ("idle_time", 0.0, 1e-2, "s", &[(1e-6, "µs"), (1e-3, "ms")]),
     (
-        "ramp_end_time",
-        1e-7,
-        1e-2,
+        "idle_time",
+        limits::IDLE_TIME_S,
         "s",
         &[(1e-6, "µs"), (1e-3, "ms")],
     ),
-    ("adc_start_time", 0.0, 1e-3, "s", &[(1e-6, "µs")]),
+    (
+        "ramp_end_time",
+        limits::RAMP_END_TIME_S,
+        "s",
+        &[(1e-6, "µs"), (1e-3, "ms")],
+    ),
+    ("adc_start_time", (0.0, 1e-3), "s", &[(1e-6, "µs")]),
 ];
 
 /// Check `value` of `key` against [`PLAUSIBLE`]; the error names the likely unit.
 fn plausible(path: &Path, line: usize, key: &str, value: f64) -> Result<(), IoError> {
-    let Some(&(_, lo, hi, unit, hints)) = PLAUSIBLE.iter().find(|p| p.0 == key) else {
+    let Some(&(_, (lo, hi), unit, hints)) = PLAUSIBLE.iter().find(|p| p.0 == key) else {
         return Ok(());
     };
     if (lo..=hi).contains(&value) {
