@@ -531,3 +531,71 @@ fn every_process_run_leaves_a_record_and_quiet_prints_nothing() -> TestResult {
     assert!(stdout.contains("frames/s"), "{stdout}");
     Ok(())
 }
+
+#[test]
+fn a_ti_cfg_equivalent_to_the_calibration_gives_the_same_points() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let seq = simulated(dir.path(), "moving_sensor", "3");
+    let cfg = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/coloradar_awr1843.cfg");
+    let (a, b) = (dir.path().join("calib_out"), dir.path().join("cfg_out"));
+    ok(&["process", s(&seq), "--out", s(&a), "--format", "csv"]);
+    ok(&[
+        "process",
+        s(&seq),
+        "--out",
+        s(&b),
+        "--format",
+        "csv",
+        "--calib",
+        s(&cfg),
+        "--board",
+        "awr1843boost",
+    ]);
+    for i in 0..3 {
+        let name = format!("csv/frame_{i}.csv");
+        let pa = host_sim::io::read_csv(&a.join(&name))?;
+        let pb = host_sim::io::read_csv(&b.join(&name))?;
+        assert_eq!(pa.len(), pb.len(), "frame {i}");
+        for (x, y) in pa.iter().zip(&pb) {
+            // The same bins; metres and m/s within the calibration's float32 rounding of the
+            // waveform (≤ 2⁻²³ relative) and the f32 output.
+            assert_eq!(
+                (x.range_bin, x.azimuth_bin, x.elevation_bin, x.doppler_bin),
+                (y.range_bin, y.azimuth_bin, y.elevation_bin, y.doppler_bin)
+            );
+            for (u, v) in [(x.x, y.x), (x.y, y.y), (x.z, y.z), (x.doppler, y.doppler)] {
+                assert!((u - v).abs() < 1e-4, "frame {i}: {u} vs {v}");
+            }
+        }
+    }
+    // A .cfg needs its board; a board needs a .cfg; a non-.cfg file is not a calibration.
+    let err = fails(&[
+        "process",
+        s(&seq),
+        "--out",
+        s(&dir.path().join("x")),
+        "--calib",
+        s(&cfg),
+    ]);
+    assert!(err.contains("--board"), "{err}");
+    let err = fails(&[
+        "process",
+        s(&seq),
+        "--out",
+        s(&dir.path().join("y")),
+        "--board",
+        "iwr6843isk",
+    ]);
+    assert!(err.contains("goes with a TI .cfg"), "{err}");
+    let txt = seq.join("calib/single_chip/waveform_cfg.txt");
+    let err = fails(&[
+        "process",
+        s(&seq),
+        "--out",
+        s(&dir.path().join("z")),
+        "--calib",
+        s(&txt),
+    ]);
+    assert!(err.contains("takes a folder"), "{err}");
+    Ok(())
+}

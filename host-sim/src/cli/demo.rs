@@ -84,7 +84,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     super::simulate::write(&seq, &scene, &sensor, &frames)?;
 
     println!("2. process: DBE chain, core fed chirp by chirp");
-    let opened = Input::open(&seq, None)?;
+    let opened = Input::open(&seq, None, None)?;
     let results = run_frames(
         &opened.input,
         &opened.sensor,

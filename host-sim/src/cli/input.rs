@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use host_sim::frame::AdcFrame;
+use host_sim::io::ticfg::{load_ti_cfg, Board};
 use host_sim::io::{coloradar, dca1000, load_calib, Sequence};
 use host_sim::sensor::SensorConfig;
 
@@ -36,7 +37,7 @@ impl Input {
     /// Open `path` with `calib` (a calibration folder), or else a calibration found beside the
     /// input (`<seq>/calib`, or `waveform_cfg.txt` + `antenna_cfg.txt` next to a `.bin`), or
     /// else the built-in ColoRadar single-chip values.
-    pub fn open(path: &Path, calib: Option<&Path>) -> Result<Opened> {
+    pub fn open(path: &Path, calib: Option<&Path>, board: Option<Board>) -> Result<Opened> {
         if !path.exists() {
             bail!("{}: no such file or folder (expected a ColoRadar sequence folder or a DCA1000 .bin file)", path.display());
         }
@@ -60,7 +61,36 @@ impl Input {
                 refuse_headerless_capture(path, dir)?;
             }
         }
+        let ti_cfg = calib.filter(|c| c.is_file());
+        if let Some(f) = ti_cfg.filter(|f| f.extension().is_none_or(|e| e != "cfg")) {
+            bail!(
+                "{}: --calib takes a folder (a ColoRadar calib folder, or waveform_cfg.txt and \
+                 antenna_cfg.txt) or a TI mmWave SDK .cfg file",
+                f.display()
+            );
+        }
+        match (ti_cfg, board) {
+            (Some(c), None) => bail!(
+                "{}: a TI .cfg does not say where the antennas are; add --board awr1843boost, \
+                 iwr6843isk or iwr6843aop",
+                c.display()
+            ),
+            (None, Some(b)) => bail!(
+                "--board {} goes with a TI .cfg given as --calib FILE; a calibration folder \
+                 has its own antenna_cfg.txt",
+                b.name()
+            ),
+            _ => {}
+        }
         let (sensor, calib_source, calib_dir) = match calib {
+            Some(cfg) if cfg.is_file() => {
+                let board = board.unwrap_or(Board::Awr1843boost);
+                (
+                    load_ti_cfg(cfg, board)?,
+                    format!("{} (TI .cfg, board {})", cfg.display(), board.name()),
+                    None,
+                )
+            }
             Some(dir) => (
                 load_calib(dir)?,
                 dir.display().to_string(),

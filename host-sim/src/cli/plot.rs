@@ -23,6 +23,9 @@ pub struct PlotArgs {
     /// Calibration folder (as for `dbe process`).
     #[arg(long)]
     pub calib: Option<PathBuf>,
+    /// The TI board whose antenna layout a TI `.cfg` given as `--calib` runs on.
+    #[arg(long, value_enum)]
+    pub board: Option<host_sim::io::ticfg::Board>,
     /// Output folder for the PNGs (created if missing; files are replaced atomically).
     #[arg(long)]
     pub out: PathBuf,
@@ -84,7 +87,7 @@ pub fn plot_frame(
 
 /// `dbe plot`.
 pub fn run(args: &PlotArgs) -> Result<()> {
-    let opened = Input::open(&args.input, args.calib.as_deref())?;
+    let opened = Input::open(&args.input, args.calib.as_deref(), args.board)?;
     if args.frame >= opened.input.len() {
         anyhow::bail!(
             "--frame {}: the input has frames 0..{}",

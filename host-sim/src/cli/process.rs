@@ -47,10 +47,13 @@ pub struct ProcessArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Calibration folder: ColoRadar `calib` (DIR/single_chip/*.txt) or a folder with
-    /// waveform_cfg.txt and antenna_cfg.txt. Default: one found beside the input, else the
-    /// built-in ColoRadar single-chip values.
+    /// waveform_cfg.txt and antenna_cfg.txt; or a TI mmWave SDK `.cfg` file with `--board`.
+    /// Default: one found beside the input, else the built-in ColoRadar single-chip values.
     #[arg(long)]
     pub calib: Option<PathBuf>,
+    /// The TI board whose antenna layout a TI `.cfg` given as `--calib` runs on.
+    #[arg(long, value_enum)]
+    pub board: Option<host_sim::io::ticfg::Board>,
     /// Processing chain.
     #[arg(long, value_enum, default_value = "dbe")]
     pub pipeline: Pipeline,
@@ -244,7 +247,7 @@ fn run_record(
 
 /// `dbe process`.
 pub fn run(args: &ProcessArgs) -> Result<()> {
-    let opened = Input::open(&args.input, args.calib.as_deref())?;
+    let opened = Input::open(&args.input, args.calib.as_deref(), args.board)?;
     let range = frame_range(args.frames.as_deref(), opened.input.len())?;
     let params = args.params.to_params(&opened.sensor)?;
     let started = std::time::Instant::now();

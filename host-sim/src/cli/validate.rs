@@ -20,6 +20,9 @@ pub struct ValidateArgs {
     /// Calibration folder (as for `dbe process`).
     #[arg(long)]
     pub calib: Option<PathBuf>,
+    /// The TI board whose antenna layout a TI `.cfg` given as `--calib` runs on.
+    #[arg(long, value_enum)]
+    pub board: Option<host_sim::io::ticfg::Board>,
     /// Frames to validate: `A..B`, `A..`, `..B` or one index.
     #[arg(long)]
     pub frames: Option<String>,
@@ -60,7 +63,7 @@ pub fn print(reports: &[(usize, FrameReport)]) -> bool {
 
 /// `dbe validate`.
 pub fn run(args: &ValidateArgs) -> Result<()> {
-    let opened = Input::open(&args.input, args.calib.as_deref())?;
+    let opened = Input::open(&args.input, args.calib.as_deref(), args.board)?;
     let range = frame_range(args.frames.as_deref(), opened.input.len())?;
     let params = args.params.to_params(&opened.sensor)?;
     eprintln!("calibration: {}", opened.calib_source);

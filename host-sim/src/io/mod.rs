@@ -5,6 +5,7 @@
 //! | ColoRadar calibration | [`load_calib`] | [`write_calib`] | [`calib`] |
 //! | ColoRadar raw sequence | [`open_sequence`] | [`write_sequence`] | [`coloradar`] |
 //! | DCA1000 raw capture | [`read_dca1000`] | [`write_dca1000`] | [`dca1000`] |
+//! | TI mmWave SDK `.cfg` + board | [`ticfg::load_ti_cfg`] | – | [`ticfg`] |
 //! | ColoRadar IMU, ground truth, transforms | [`read_imu`], [`read_groundtruth`], [`load_transforms`] | [`write_imu`], [`write_transforms`] (poses: [`crate::sim::write_truth`]) | [`navigation`] |
 //! | point clouds | [`read_coloradar_pointclouds`], [`read_csv`], … | [`write_coloradar_pointclouds`], [`write_csv`], [`write_pcd`], [`write_ply`], … | [`pointcloud`] |
 //!
@@ -28,6 +29,7 @@ pub mod coloradar;
 pub mod dca1000;
 pub mod navigation;
 pub mod pointcloud;
+pub mod ticfg;
 
 pub use atomic::{write_file_atomic, StagedDir};
 pub use calib::{load_calib, write_calib};

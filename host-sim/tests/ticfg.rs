@@ -1,0 +1,95 @@
+//! TI mmWave SDK `.cfg` files as sensor descriptions: what they give, and every setup the chains
+//! cannot run refused with the line named.
+
+use std::path::{Path, PathBuf};
+
+use host_sim::io::ticfg::{load_ti_cfg, Board};
+use host_sim::sensor::SensorConfig;
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+fn coloradar_cfg() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/coloradar_awr1843.cfg")
+}
+
+#[test]
+fn the_coloradar_cfg_gives_coloradar_s_sensor() -> TestResult {
+    let s = load_ti_cfg(&coloradar_cfg(), Board::Awr1843boost)?;
+    let c = SensorConfig::coloradar();
+    assert_eq!((s.samples, s.loops, s.num_tx, s.num_rx), (128, 128, 3, 4));
+    // TDM order from the chirps' TX masks 1, 4, 2: TX0, TX2, TX1 = ColoRadar's antenna_cfg.
+    assert_eq!(s.tx, c.tx);
+    assert_eq!(s.rx, c.rx);
+    assert_eq!(s.f_design_hz, c.f_design_hz);
+    let (w, cw) = (s.waveform, c.waveform);
+    // The .cfg's round numbers against the calibration file's, which are float32 roundings of
+    // them (ramp end 1.99999994948e-05 s for 20 µs): within one f32 ulp, 2⁻²³ relative.
+    for (a, b) in [
+        (w.start_frequency_hz, cw.start_frequency_hz),
+        (w.slope_hz_per_s, cw.slope_hz_per_s),
+        (w.adc_sample_rate_hz, cw.adc_sample_rate_hz),
+        (w.idle_time_s, cw.idle_time_s),
+        (w.ramp_end_time_s, cw.ramp_end_time_s),
+    ] {
+        assert!(
+            (a - b).abs() <= f64::from(f32::EPSILON) * b.abs(),
+            "{a} vs {b}"
+        );
+    }
+    assert!((s.adc_start_time_s - 6e-6).abs() < 1e-15);
+    Ok(())
+}
+
+#[test]
+fn setups_the_chains_cannot_run_are_refused_naming_the_line() -> TestResult {
+    let base = std::fs::read_to_string(coloradar_cfg())?;
+    let dir = tempfile::tempdir()?;
+    let cases = [
+        (
+            "chirpCfg 1 1 0 0 0 0 0 4",
+            "chirpCfg 1 1 0 0 0 0 0 5",
+            "one TX (mask 1, 2 or 4) per chirp",
+        ),
+        (
+            "chirpCfg 1 1 0 0 0 0 0 4",
+            "chirpCfg 1 1 0 0 0 0 0 1",
+            "fires twice",
+        ),
+        (
+            "chirpCfg 1 1 0 0 0 0 0 4",
+            "chirpCfg 1 1 0 0 0.1 0 0 4",
+            "chirp variations",
+        ),
+        ("channelCfg 15 7 0", "channelCfg 15 3 0", "not enabled"),
+        ("adcCfg 2 1", "adcCfg 2 0", "real ADC output"),
+        (
+            "frameCfg 0 2 128 0 100 1 0",
+            "frameCfg 0 3 128 0 100 1 0",
+            "no chirpCfg defines",
+        ),
+        (
+            "profileCfg 0 77 110 6 20",
+            "profileCfg 0 77 110 16 20",
+            "sampling ends",
+        ),
+        (
+            "profileCfg 0 77 110 6 20 0 0 100 1 128 10666 0 0 30",
+            "profileCfg 0 77 110 6 20 0 0 100",
+            "expected at least 11",
+        ),
+    ];
+    for (from, to, expected) in cases {
+        let path = dir.path().join("bad.cfg");
+        std::fs::write(&path, base.replace(from, to))?;
+        let e = load_ti_cfg(&path, Board::Awr1843boost)
+            .err()
+            .ok_or_else(|| format!("{to}: accepted"))?
+            .to_string();
+        assert!(e.contains("bad.cfg") && e.contains(expected), "{to}: {e}");
+    }
+    let e = load_ti_cfg(&coloradar_cfg(), Board::Iwr6843aop)
+        .err()
+        .ok_or("aop accepted")?;
+    assert!(e.to_string().contains("2-D virtual array"), "{e}");
+    Ok(())
+}
