@@ -28,9 +28,6 @@ pub struct OdometryArgs {
     /// [default: SEQ/calib].
     #[arg(long)]
     pub calib: Option<PathBuf>,
-    /// The TI board whose antenna layout a TI `.cfg` given as `--calib` runs on.
-    #[arg(long, value_enum)]
-    pub board: Option<host_sim::io::ticfg::Board>,
     /// Processing chain that makes the points.
     #[arg(long, value_enum, default_value = "dbe")]
     pub pipeline: Pipeline,
@@ -101,7 +98,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             args.input.display()
         );
     }
-    let opened = Input::open(&args.input, args.calib.as_deref(), args.board)?;
+    let opened = Input::open(&args.input, args.calib.as_deref(), None)?;
     let Input::Sequence { .. } = &opened.input else {
         bail!(
             "{}: expected a ColoRadar sequence folder",
