@@ -45,16 +45,7 @@ fn waypoint(
 
 /// The truth as stamped poses of the base at `times`.
 fn truth_at(traj: &Trajectory, times: impl Iterator<Item = f64>) -> Vec<StampedPose> {
-    times
-        .map(|t| {
-            let p = traj.pose(t);
-            StampedPose {
-                time_s: t,
-                position: p.position,
-                rotation: UnitQuaternion::from_rotation_matrix(&p.rotation),
-            }
-        })
-        .collect()
+    times.map(|t| traj.pose(t).stamped(t)).collect()
 }
 
 #[test]
@@ -193,8 +184,11 @@ fn perfect_radar(scene: &Scene, frames: usize, sigma: f64, seed: u64) -> Vec<Fra
         .map(|i| {
             let t = i as f64 / scene.frame_rate_hz;
             let tm = t + 0.025;
-            let r = scene.sensor.pose(tm).mounted(&scene.rig.radar);
-            let v = r.rotation.inverse() * r.velocity;
+            let v = scene
+                .sensor
+                .pose(tm)
+                .mounted(&scene.rig.radar)
+                .body_velocity();
             let mut ego = dbe_radar::EgoVelocity {
                 status: dbe_radar::EgoStatus::Ok,
                 covariance: [[var, 0.0, 0.0], [0.0, var, 0.0], [0.0, 0.0, var]],
@@ -215,13 +209,6 @@ fn perfect_radar(scene: &Scene, frames: usize, sigma: f64, seed: u64) -> Vec<Fra
         .collect()
 }
 
-fn transforms(scene: &Scene) -> Transforms {
-    Transforms {
-        radar: scene.rig.radar.clone(),
-        imu: scene.rig.imu.clone(),
-    }
-}
-
 #[test]
 fn ekf_with_an_ideal_imu_and_exact_velocities_follows_the_truth() -> TestResult {
     // An ideal IMU (pure integration follows the truth to 1e-7°) and radar velocities with 1 cm/s
@@ -238,7 +225,7 @@ fn ekf_with_an_ideal_imu_and_exact_velocities_follows_the_truth() -> TestResult 
         1,
     );
     let radar = perfect_radar(&scene, frames, 0.01, 1);
-    let run = odometry::run(&EkfParams::default(), &imu, &radar, &transforms(&scene))?;
+    let run = odometry::run(&EkfParams::default(), &imu, &radar, &scene.rig)?;
     assert_eq!(run.updates.gated, 0);
     let gt = truth_at(&scene.sensor, (0..frames).map(|i| i as f64 / 10.0));
     let e = metrics::evaluate(&run.trajectory, &gt).ok_or("no match")?;
@@ -266,7 +253,7 @@ fn ekf_drift_with_perfect_velocity_updates_is_bounded_by_the_imu_noise() -> Test
     for seed in 1..=4 {
         let imu = simulate_imu(&spec, &scene.sensor, &scene.rig.imu, t_end, seed);
         let radar = perfect_radar(&scene, frames, 0.02, seed);
-        let run = odometry::run(&EkfParams::default(), &imu, &radar, &transforms(&scene))?;
+        let run = odometry::run(&EkfParams::default(), &imu, &radar, &scene.rig)?;
         let gt = truth_at(&scene.sensor, (0..frames).map(|i| i as f64 / 10.0));
         let e = metrics::evaluate(&run.trajectory, &gt).ok_or("no match")?;
         let t = t_end - 1.0;
@@ -295,8 +282,11 @@ fn ekf_gates_a_wrong_velocity_and_takes_a_right_one() -> TestResult {
     // Converge on right velocities for 2 s of walking, then offer a wrong one.
     let cov = Matrix3::identity() * 0.03f64.powi(2);
     let truth_at_t = |t: f64| {
-        let r = scene.sensor.pose(t).mounted(&scene.rig.radar);
-        r.rotation.inverse() * r.velocity
+        scene
+            .sensor
+            .pose(t)
+            .mounted(&scene.rig.radar)
+            .body_velocity()
     };
     let mut t = 2.0;
     let mut truth = Vector3::zeros();
@@ -455,8 +445,8 @@ fn navigation_files_round_trip() -> TestResult {
     let imu = simulate_imu(&ImuSpec::default(), &scene.sensor, &scene.rig.imu, 2.0, 4);
     write_imu(dir.path(), &imu)?;
     assert_eq!(read_imu(dir.path())?, imu);
-    let t = transforms(&scene);
-    write_transforms(&dir.path().join("calib"), &t)?;
+    let t: &Transforms = &scene.rig;
+    write_transforms(&dir.path().join("calib"), t)?;
     let back = load_transforms(&dir.path().join("calib"))?;
     assert_eq!(back.radar.position, t.radar.position);
     assert!((back.imu.rotation().matrix() - t.imu.rotation().matrix()).norm() < 1e-12);

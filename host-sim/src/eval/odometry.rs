@@ -100,19 +100,8 @@ pub fn run_odometry(
                     .collect())
             })?;
             let truth: Vec<StampedPose> = (0..n)
-                .map(|i| {
-                    let p = scene.sensor.pose(sim.time_s(i));
-                    StampedPose {
-                        time_s: sim.time_s(i),
-                        position: p.position,
-                        rotation: nalgebra::UnitQuaternion::from_rotation_matrix(&p.rotation),
-                    }
-                })
+                .map(|i| scene.sensor.pose(sim.time_s(i)).stamped(sim.time_s(i)))
                 .collect();
-            let transforms = crate::io::Transforms {
-                radar: scene.rig.radar.clone(),
-                imu: scene.rig.imu.clone(),
-            };
             for (slot, &v) in which.iter().enumerate() {
                 let per_frame: Vec<(f64, &[PointRecord])> = points
                     .iter()
@@ -122,10 +111,15 @@ pub fn run_odometry(
                 let frames = odometry::frame_velocities(&per_frame, mid)
                     .map_err(|e| EvalError::Setup(format!("ego-velocity parameters: {e:?}")))?;
                 let ego = odometry::ego_errors(&frames, |t| {
-                    let r = scene.sensor.pose(t).mounted(&scene.rig.radar);
-                    Some(r.rotation.inverse() * r.velocity)
+                    Some(
+                        scene
+                            .sensor
+                            .pose(t)
+                            .mounted(&scene.rig.radar)
+                            .body_velocity(),
+                    )
                 });
-                let run = odometry::run(&EkfParams::default(), &imu, &frames, &transforms);
+                let run = odometry::run(&EkfParams::default(), &imu, &frames, &scene.rig);
                 let total: usize = frames.iter().map(|f| f.points).sum();
                 let (updates, errors, failure) = match run {
                     Ok(r) => (r.updates, metrics::evaluate(&r.trajectory, &truth), None),

@@ -16,9 +16,11 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{UnitQuaternion, Vector3};
 
+use super::atomic::{create_dir, write_plain};
 use super::coloradar::parse_times;
 use super::{content_lines, read_text, IoError};
 use crate::sim::imu::ImuSample;
+use crate::sim::scene::Rig;
 use crate::sim::trajectory::{quaternion_from_xyzw, Mount};
 
 /// The IMU folder of a sequence.
@@ -49,14 +51,9 @@ pub struct StampedPose {
     pub rotation: UnitQuaternion<f64>,
 }
 
-/// Where the radar and the IMU sit on the base (`calib/transforms/`).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Transforms {
-    /// `base_to_single_chip.txt`.
-    pub radar: Mount,
-    /// `base_to_imu.txt`.
-    pub imu: Mount,
-}
+/// Where the radar and the IMU sit on the base (`calib/transforms/`): the scene's [`Rig`],
+/// one type for the simulator's mounts and the files'.
+pub type Transforms = Rig;
 
 /// `n` whitespace-separated finite numbers of one line.
 fn numbers<const N: usize>(
@@ -199,12 +196,14 @@ pub fn read_transform(path: &Path) -> Result<Mount, IoError> {
     })
 }
 
-/// Write one transform file.
+/// Write one transform file (plainly: into a folder being staged, as the writers below).
 pub fn write_transform(path: &Path, mount: &Mount) -> Result<(), IoError> {
     let [x, y, z] = mount.position;
     let [qx, qy, qz, qw] = mount.quaternion;
-    let text = format!("{x} {y} {z}\n{qx} {qy} {qz} {qw}\n");
-    std::fs::write(path, text).map_err(|e| IoError::os(path, "write", e))
+    write_plain(
+        path,
+        format!("{x} {y} {z}\n{qx} {qy} {qz} {qw}\n").as_bytes(),
+    )
 }
 
 /// The transforms folder of a calibration folder `calib` (`calib/transforms`).
@@ -221,19 +220,20 @@ pub fn load_transforms(calib: &Path) -> Result<Transforms, IoError> {
     })
 }
 
-/// Write `calib/transforms/` (creating the folders).
+/// Write `calib/transforms/` (creating the folders) into a folder being staged
+/// ([`crate::io::StagedDir`]).
 pub fn write_transforms(calib: &Path, t: &Transforms) -> Result<(), IoError> {
     let dir = transforms_dir(calib);
-    std::fs::create_dir_all(&dir).map_err(|e| IoError::os(&dir, "create", e))?;
+    create_dir(&dir)?;
     write_transform(&dir.join(RADAR_TRANSFORM_FILE), &t.radar)?;
     write_transform(&dir.join(IMU_TRANSFORM_FILE), &t.imu)
 }
 
-/// Write `SEQ/imu/` (creating the folder). Values use Rust's shortest round-trip formatting,
-/// so [`read_imu`] returns them bit-exact.
+/// Write `SEQ/imu/` (creating the folder) into a folder being staged. Values use Rust's
+/// shortest round-trip formatting, so [`read_imu`] returns them bit-exact.
 pub fn write_imu(seq: &Path, samples: &[ImuSample]) -> Result<(), IoError> {
     let dir = seq.join(IMU_DIR);
-    std::fs::create_dir_all(&dir).map_err(|e| IoError::os(&dir, "create", e))?;
+    create_dir(&dir)?;
     let (mut data, mut times) = (String::new(), String::new());
     for s in samples {
         let (a, g) = (s.accel, s.gyro);
@@ -244,8 +244,7 @@ pub fn write_imu(seq: &Path, samples: &[ImuSample]) -> Result<(), IoError> {
         times.push_str(&format!("{}\n", s.time_s));
     }
     for (name, text) in [(IMU_DATA_FILE, data), (TIMESTAMPS, times)] {
-        let path = dir.join(name);
-        std::fs::write(&path, text).map_err(|e| IoError::os(&path, "write", e))?;
+        write_plain(&dir.join(name), text.as_bytes())?;
     }
     Ok(())
 }

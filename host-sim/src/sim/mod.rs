@@ -224,13 +224,7 @@ pub fn write_navigation(
     frames: usize,
 ) -> Result<(), crate::io::IoError> {
     crate::io::write_imu(dir, &scene_imu(scene, frames))?;
-    crate::io::write_transforms(
-        &dir.join("calib"),
-        &crate::io::Transforms {
-            radar: scene.rig.radar.clone(),
-            imu: scene.rig.imu.clone(),
-        },
-    )
+    crate::io::write_transforms(&dir.join("calib"), &scene.rig)
 }
 
 /// Simulate frames `0..frames` of `scene` as seen by `sensor`.

@@ -206,6 +206,20 @@ impl Pose {
         m[(1, 0)].atan2(m[(0, 0)])
     }
 
+    /// Velocity in the body frame, `Rᵀ·v`, m/s (for the radar: the ego-velocity truth).
+    pub fn body_velocity(&self) -> Vector3<f64> {
+        self.rotation.inverse() * self.velocity
+    }
+
+    /// The trajectory's pose at `time_s` as a stamped pose (the ground-truth format).
+    pub fn stamped(&self, time_s: f64) -> crate::io::StampedPose {
+        crate::io::StampedPose {
+            time_s,
+            position: self.position,
+            rotation: UnitQuaternion::from_rotation_matrix(&self.rotation),
+        }
+    }
+
     /// Angular velocity in the world frame, rad/s.
     pub fn angular_velocity_world(&self) -> Vector3<f64> {
         self.rotation * self.angular_velocity
