@@ -69,34 +69,28 @@ impl Input {
                 f.display()
             );
         }
-        match (ti_cfg, board) {
-            (Some(c), None) => bail!(
+        let (sensor, calib_source, calib_dir) = match (calib, ti_cfg, board) {
+            (_, Some(c), None) => bail!(
                 "{}: a TI .cfg does not say where the antennas are; add --board awr1843boost, \
                  iwr6843isk or iwr6843aop",
                 c.display()
             ),
-            (None, Some(b)) => bail!(
+            (_, None, Some(b)) => bail!(
                 "--board {} goes with a TI .cfg given as --calib FILE; a calibration folder \
                  has its own antenna_cfg.txt",
                 b.name()
             ),
-            _ => {}
-        }
-        let (sensor, calib_source, calib_dir) = match calib {
-            Some(cfg) if cfg.is_file() => {
-                let board = board.unwrap_or(Board::Awr1843boost);
-                (
-                    load_ti_cfg(cfg, board)?,
-                    format!("{} (TI .cfg, board {})", cfg.display(), board.name()),
-                    None,
-                )
-            }
-            Some(dir) => (
+            (_, Some(cfg), Some(board)) => (
+                load_ti_cfg(cfg, board)?,
+                format!("{} (TI .cfg, board {})", cfg.display(), board.name()),
+                None,
+            ),
+            (Some(dir), None, None) => (
                 load_calib(dir)?,
                 dir.display().to_string(),
                 Some(dir.to_path_buf()),
             ),
-            None => match beside.filter(|d| has_calib(d)) {
+            (None, _, _) => match beside.filter(|d| has_calib(d)) {
                 Some(dir) => (
                     load_calib(&dir)?,
                     format!("{} (found beside the input)", dir.display()),
