@@ -179,22 +179,14 @@ pub fn write_outputs(dir: &Path, results: &[FrameResult], formats: &[Format]) ->
 /// their SHA-256, for the run record.
 fn calibration_files(dir: &Path) -> Result<Vec<serde_json::Value>> {
     use sha2::{Digest, Sha256};
-    let base = if dir.join("single_chip").is_dir() {
-        dir.join("single_chip")
-    } else {
-        dir.to_path_buf()
-    };
     let mut out = Vec::new();
-    for name in ["waveform_cfg.txt", "antenna_cfg.txt", "coupling_calib.txt"] {
-        let path = base.join(name);
-        if path.is_file() {
-            let bytes = fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-            let hash: String = Sha256::digest(&bytes)
-                .iter()
-                .map(|b| format!("{b:02x}"))
-                .collect();
-            out.push(serde_json::json!({"path": path.display().to_string(), "sha256": hash}));
-        }
+    for path in host_sim::io::calib::calib_files(dir)? {
+        let bytes = fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+        let hash: String = Sha256::digest(&bytes)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect();
+        out.push(serde_json::json!({"path": path.display().to_string(), "sha256": hash}));
     }
     Ok(out)
 }

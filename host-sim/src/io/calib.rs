@@ -498,6 +498,16 @@ pub fn parse_coupling_calib(path: &Path, text: &str) -> Result<(usize, usize, Co
     ))
 }
 
+/// The calibration files [`load_calib`] reads from `dir` (the ones that exist, waveform first).
+pub fn calib_files(dir: &Path) -> Result<Vec<PathBuf>, IoError> {
+    let base = calib_base(dir)?;
+    Ok([WAVEFORM_FILE, ANTENNA_FILE, COUPLING_FILE]
+        .iter()
+        .map(|f| base.join(f))
+        .filter(|p| p.is_file())
+        .collect())
+}
+
 /// Where [`load_calib`] found the files.
 fn calib_base(dir: &Path) -> Result<PathBuf, IoError> {
     if !dir.is_dir() {
