@@ -307,35 +307,47 @@ pub fn detect<const N: usize, const C: usize, const DET: usize>(
         gc = gc.min(half);
         wc = wc.min(half);
     }
+    let averaging = p.kind == CfarKind::CellAveraging;
     for b in first..=last {
+        // The level is never below the row's floor, so a cell at or below α · floor cannot be
+        // a detection: an exact test that spares most noise cells of the DBE map the window.
+        let bound = floor.map_or(0.0, |f| alpha * f[b]).max(0.0);
         for i in edge..(C - edge) {
             let cut = map[b][i];
-            if !(cut > 0.0) || !is_local_max(map, first, last, periodic, b, i) {
+            if !(cut > bound) || !is_local_max(map, first, last, periodic, b, i) {
                 continue;
             }
             let mut n = 0usize;
             let mut sum = 0.0f32;
+            // Training cells the CUT beats by more than α.
+            let mut below = 0usize;
             for rb in b.saturating_sub(wr).max(first)..=(b + wr).min(last) {
                 let row = &map[rb];
-                let in_range_guard = rb.abs_diff(b) <= gr;
-                for off in 0..=2 * wc {
-                    // Offset −wc..=wc from the CUT: wrapped, or skipped outside the map.
-                    if in_range_guard && off.abs_diff(wc) <= gc {
-                        continue;
-                    }
-                    let col = if periodic {
-                        (i + C - wc + off) % C
-                    } else {
-                        match (i + off).checked_sub(wc) {
-                            Some(c) if c < C => c,
-                            _ => continue,
+                // Offsets −wc..=wc from the CUT, without the guard's on the guard rows, in
+                // ascending order (the CA sum's order).
+                let offsets = if rb.abs_diff(b) <= gr {
+                    [
+                        (-(wc as isize), -(gc as isize) - 1),
+                        (gc as isize + 1, wc as isize),
+                    ]
+                } else {
+                    [(-(wc as isize), wc as isize), (1, 0)]
+                };
+                for (lo, hi) in offsets {
+                    for cols in column_runs::<C>(i, lo, hi, periodic) {
+                        let run = row.get(cols).unwrap_or(&[]);
+                        let room = scratch.len().saturating_sub(n);
+                        if averaging {
+                            for &v in run.iter().take(room) {
+                                sum += v;
+                            }
+                        } else {
+                            for (s, &v) in scratch[n..].iter_mut().zip(run.iter()) {
+                                below += usize::from(cut > alpha * v);
+                                *s = v;
+                            }
                         }
-                    };
-                    let v = row[col];
-                    sum += v;
-                    if let Some(s) = scratch.get_mut(n) {
-                        *s = v;
-                        n += 1;
+                        n += run.len().min(room);
                     }
                 }
             }
@@ -346,8 +358,18 @@ pub fn detect<const N: usize, const C: usize, const DET: usize>(
                 CfarKind::CellAveraging => sum / n as f32,
                 CfarKind::OrderStatistic { quantile } => {
                     let k = ceil_index(quantile, n);
-                    let (_, &mut order, _) = scratch[..n].select_nth_unstable_by(k, f32::total_cmp);
-                    order
+                    // `cut > α · v_(k)` (the (k+1)-th smallest) holds exactly when at least
+                    // k + 1 training values have `cut > α · v` (`α · v` is monotone in v), so
+                    // only a detection needs the selection, for its level.
+                    if below <= k {
+                        continue;
+                    }
+                    // Map powers are ≥ 0 (a NaN or negative value counts as 0 here), and for
+                    // non-negative floats the bit patterns order as the values: an integer
+                    // compare instead of `total_cmp`'s.
+                    let key = |v: &f32| if *v > 0.0 { v.to_bits() } else { 0 };
+                    let (_, &mut order, _) = scratch[..n].select_nth_unstable_by_key(k, key);
+                    order.max(0.0)
                 }
             };
             let level = match floor {
@@ -363,6 +385,34 @@ pub fn detect<const N: usize, const C: usize, const DET: usize>(
                 });
             }
         }
+    }
+}
+
+/// The columns at offsets `lo..=hi` from column `i`, as at most two ascending runs of a row
+/// of `C` columns: wrapped (the second run is the part past the end, continued from column
+/// 0), or clipped to the row when the columns are truncated. Empty when `lo > hi`.
+fn column_runs<const C: usize>(
+    i: usize,
+    lo: isize,
+    hi: isize,
+    periodic: bool,
+) -> [core::ops::Range<usize>; 2] {
+    let (c, i) = (C as isize, i as isize);
+    if lo > hi {
+        return [0..0, 0..0];
+    }
+    let (start, end) = (i + lo, i + hi + 1);
+    if !periodic {
+        let clip = |x: isize| x.clamp(0, c) as usize;
+        return [clip(start)..clip(end), 0..0];
+    }
+    // Offsets are clamped to within half a row, so start > −C and end ≤ 2C.
+    let start = start.rem_euclid(c);
+    let len = (end - (i + lo)).min(c);
+    if start + len <= c {
+        [start as usize..(start + len) as usize, 0..0]
+    } else {
+        [start as usize..C, 0..(start + len - c) as usize]
     }
 }
 

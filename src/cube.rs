@@ -171,23 +171,35 @@ impl<'a, const N: usize, const K: usize, const M: usize> Cube<'a, N, K, M> {
 
     /// Store the range spectrum of row `row`, loop `k` with its block exponent.
     pub(crate) fn store(&mut self, row: usize, k: usize, spectrum: &[Complex32; N]) {
+        if row >= M || k >= K {
+            return;
+        }
         let peak = f32::from_bits(peak_magnitude_bits(spectrum));
+        if !peak.is_finite() {
+            // An infinite component (only from an absurd coupling table; a NaN cannot arise
+            // from i16 samples and finite tables): exponent 0, the checked quantiser
+            // (saturating, NaN → 0).
+            self.exponent[row][k] = 0;
+            for (bin, v) in self.bins.iter_mut().zip(spectrum.iter()) {
+                bin[row][k] = [quantise(v.re), quantise(v.im)];
+            }
+            return;
+        }
         // Smallest e with peak · 2^−e ≤ 32767: writing peak/32767 = f · 2^e with f ∈ [½, 1)
         // (frexp), e is the float's biased exponent − 126.
-        let e = if peak > 0.0 && peak.is_finite() {
+        let e = if peak > 0.0 {
             let biased = ((peak / 32767.0).to_bits() >> 23) & 0xff;
             (biased as i32 - 126).clamp(-EXPONENT_LIMIT, EXPONENT_LIMIT)
         } else {
             0
         };
+        self.exponent[row][k] = e as i8;
+        // Every |component| · 2^−e is now ≤ 32767 (e never clamps from above: a finite f32
+        // is below 32767 · 2^125), so the rounding needs no saturation. Indices were checked
+        // once above, so the loop is a strided store with no checks.
         let scale = pow2(-e);
-        if let Some(x) = self.exponent.get_mut(row).and_then(|r| r.get_mut(k)) {
-            *x = e as i8;
-        }
         for (bin, v) in self.bins.iter_mut().zip(spectrum.iter()) {
-            if let Some(m) = bin.get_mut(row).and_then(|r| r.get_mut(k)) {
-                *m = [quantise(v.re * scale), quantise(v.im * scale)];
-            }
+            bin[row][k] = [round_small(v.re * scale), round_small(v.im * scale)];
         }
     }
 }
@@ -204,35 +216,45 @@ pub struct Frame<'c, const N: usize, const K: usize, const M: usize> {
 impl<const N: usize, const K: usize, const M: usize> Frame<'_, N, K, M> {
     /// Range bin `b` as `f32` snapshots (all zero for `b ≥ N`).
     pub fn snapshots(&self, b: usize, out: &mut Snapshots<K, M>) {
+        self.leading_snapshots(b, M, out);
+    }
+
+    /// The first `rows` rows of range bin `b` as `f32` snapshots (all zero for `b ≥ N`);
+    /// the other rows of `out` are left as they are. The azimuth stage needs only the
+    /// azimuth line, the first `AZ` rows.
+    pub fn leading_snapshots(&self, b: usize, rows: usize, out: &mut Snapshots<K, M>) {
         let Some(bin) = self.bins.get(b) else {
-            *out = [[Complex32::new(0.0, 0.0); K]; M];
+            for o in out.iter_mut().take(rows) {
+                *o = [Complex32::new(0.0, 0.0); K];
+            }
             return;
         };
-        for ((o, row), exps) in out.iter_mut().zip(bin.iter()).zip(self.exponent.iter()) {
+        for ((o, row), exps) in out
+            .iter_mut()
+            .zip(bin.iter())
+            .zip(self.exponent.iter())
+            .take(rows)
+        {
             for ((v, m), &e) in o.iter_mut().zip(row.iter()).zip(exps.iter()) {
-                let scale = pow2(i32::from(e));
+                let scale = stored_pow2(e);
                 *v = Complex32::new(f32::from(m[0]) * scale, f32::from(m[1]) * scale);
             }
         }
     }
 }
 
-/// The bit pattern of the largest `|re|`, `|im|` of `spectrum`, NaN components ignored (as
-/// `f32::max` would): for non-negative floats the order of the bit patterns as integers is the
-/// order of the values, so the peak is an integer maximum over the patterns with the sign bit
-/// cleared, which needs no float compare chain (2.1× faster on the host, issue 13) and gives
-/// the same bits as the float maximum.
+/// The bit pattern of the largest `|re|`, `|im|` of `spectrum`: for non-negative floats the
+/// order of the bit patterns as integers is the order of the values, so the peak is an
+/// integer maximum over the patterns with the sign bit cleared, which needs no float compare
+/// chain (2.1× faster on the host, issue 13). Infinity's pattern is above every finite one
+/// and a NaN's above infinity's, so a spectrum with either has a non-finite peak (which
+/// [`Cube::store`] takes to its checked path).
 #[inline]
 fn peak_magnitude_bits<const N: usize>(spectrum: &[Complex32; N]) -> u32 {
     const ABS: u32 = 0x7fff_ffff;
-    const INF: u32 = 0x7f80_0000;
     let mut peak = 0u32;
     for v in spectrum.iter() {
-        for bits in [v.re.to_bits() & ABS, v.im.to_bits() & ABS] {
-            // A NaN pattern is above infinity's: ignore it.
-            let bits = if bits > INF { 0 } else { bits };
-            peak = peak.max(bits);
-        }
+        peak = peak.max(v.re.to_bits() & ABS).max(v.im.to_bits() & ABS);
     }
     peak
 }
@@ -246,8 +268,28 @@ fn pow2(e: i32) -> f32 {
     f32::from_bits(((e.clamp(-126, 127) + 127) as u32) << 23)
 }
 
-/// Round half away from zero to an i16, saturating at ±32767 (NaN → 0). One add and one
-/// float-to-int conversion: `libm::roundf` is a slow software routine on Cortex-M.
+/// `1.5 · 2²³`: adding it to an `|x| < 2²²` leaves `x` rounded to an integer (ties to even,
+/// the FPU's rounding) in the low mantissa bits.
+const ROUNDING_MAGIC: f32 = 12_582_912.0;
+
+/// `2^e` of a stored block exponent (`|e| ≤ 125`, [`EXPONENT_LIMIT`]): its bits, with no
+/// clamp (an add, a shift and a move per snapshot element).
+#[inline]
+fn stored_pow2(e: i8) -> f32 {
+    f32::from_bits(((i32::from(e) + 127) as u32) << 23)
+}
+
+/// Round `|x| ≤ 32767.5` to the nearest integer, ties to even: one add, one move and one
+/// subtract (no compare, no float-to-int conversion; `libm::roundf` is a slow software
+/// routine on Cortex-M). Outside that range the result is meaningless; [`Cube::store`]
+/// guarantees it.
+#[inline]
+fn round_small(x: f32) -> i16 {
+    ((x + ROUNDING_MAGIC).to_bits() as i32 - ROUNDING_MAGIC.to_bits() as i32) as i16
+}
+
+/// Round half away from zero to an i16, saturating at ±32767 (NaN → 0): the checked path
+/// of [`Cube::store`] for a spectrum with an infinite component.
 #[inline]
 fn quantise(x: f32) -> i16 {
     let r = if x >= 0.0 { x + 0.5 } else { x - 0.5 };
@@ -264,7 +306,6 @@ mod tests {
         assert_eq!(peak_magnitude_bits(&x), 0);
         x[2] = Complex32::new(-3.5, 1.0);
         x[5] = Complex32::new(2.0, -7.25);
-        x[6] = Complex32::new(f32::NAN, 0.5);
         let float_peak = x
             .iter()
             .fold(0.0f32, |p, v| p.max(v.re.abs()).max(v.im.abs()));
@@ -272,12 +313,56 @@ mod tests {
         assert_eq!(float_peak, 7.25);
         x[7] = Complex32::new(f32::NEG_INFINITY, 0.0);
         assert_eq!(f32::from_bits(peak_magnitude_bits(&x)), f32::INFINITY);
+        x[6] = Complex32::new(f32::NAN, 0.5);
+        assert!(f32::from_bits(peak_magnitude_bits(&x)).is_nan());
+    }
+
+    #[test]
+    fn round_small_rounds_to_nearest_ties_to_even() {
+        for (x, r) in [
+            (0.0f32, 0i16),
+            (0.49, 0),
+            (0.5, 0),
+            (1.5, 2),
+            (2.5, 2),
+            (-2.5, -2),
+            (-2.51, -3),
+            (32767.0, 32767),
+            (-32767.0, -32767),
+            (32766.6, 32767),
+            (-0.2, 0),
+        ] {
+            assert_eq!(round_small(x), r, "{x}");
+        }
+        // Everywhere else in range it is the nearest integer.
+        let mut x = -32767.4f32;
+        while x < 32767.4 {
+            let r = f32::from(round_small(x));
+            assert!((r - x).abs() <= 0.5, "{x} -> {r}");
+            x += 0.37;
+        }
+    }
+
+    #[test]
+    fn an_infinite_component_saturates() {
+        let mut storage = [[[[0i16; 2]; 1]; 1]; 4];
+        let mut cube = Cube::<4, 1, 1>::new(&mut storage);
+        let mut spectrum = [Complex32::new(3.0, -2.0); 4];
+        spectrum[1] = Complex32::new(f32::INFINITY, 1e9);
+        cube.store(0, 0, &spectrum);
+        let m = cube.mantissas();
+        assert_eq!(m[1][0][0], [32767, 32767]);
+        assert_eq!(m[0][0][0], [3, -2]);
+        assert_eq!(cube.exponent[0][0], 0);
     }
 
     #[test]
     fn pow2_and_quantise() {
         for e in -126..=127 {
             assert_eq!(pow2(e), libm::ldexpf(1.0, e));
+        }
+        for e in -EXPONENT_LIMIT..=EXPONENT_LIMIT {
+            assert_eq!(stored_pow2(e as i8), libm::ldexpf(1.0, e));
         }
         assert_eq!(quantise(2.5), 3);
         assert_eq!(quantise(-2.5), -3);

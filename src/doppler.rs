@@ -6,7 +6,7 @@
 
 use num_complex::Complex32;
 
-use crate::fft::fft_in_place;
+use crate::fft::fft_from;
 
 /// The strongest bin of a slow-time signal, after windowing and FFT.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -20,11 +20,13 @@ pub struct DopplerPeak {
 }
 
 /// Window `y` in place, FFT it and return its strongest bin.
+///
+/// Not inlined: the chain calls it from two places per detection, and a copy of the FFT at
+/// each would cost flash for no measurable speed.
+#[inline(never)]
 pub fn doppler_peak<const K: usize>(y: &mut [Complex32; K], window: &[f32; K]) -> DopplerPeak {
-    for (v, w) in y.iter_mut().zip(window.iter()) {
-        *v *= *w;
-    }
-    fft_in_place(y);
+    let x = *y;
+    fft_from(y, |n| x[n & (K - 1)] * window[n & (K - 1)]);
     let mut best = (0usize, -1.0f32);
     for (d, v) in y.iter().enumerate() {
         let p = v.norm_sqr();

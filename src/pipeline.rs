@@ -19,7 +19,7 @@
 
 use num_complex::Complex32;
 
-use crate::capon::{Capon, LineSpectrum};
+use crate::capon::{line_phase, Capon, LineSpectrum};
 use crate::cfar::{self, CfarParams, Columns, Detection, Detections, MapShape, MAX_TRAINING_CELLS};
 use crate::chain::Chain;
 use crate::config::{
@@ -367,7 +367,8 @@ impl<
             let (Some(ra), Some(floor)) = (work.ra.get_mut(b), work.floor.get_mut(b)) else {
                 continue;
             };
-            frame.snapshots(b, &mut work.block);
+            // Only the azimuth line's rows are read below.
+            frame.leading_snapshots(b, AZ, &mut work.block);
             let mut cov = zero::<AZ>();
             covariance(&work.block[..], &mut cov);
             match self.azimuth_capon(&cov) {
@@ -377,7 +378,7 @@ impl<
                     // The azimuth line is uniform and in position order (`ArrayLayout`).
                     let line = LineSpectrum::new(&capon);
                     for (p, steer) in ra.iter_mut().zip(self.az_steer.iter()) {
-                        *p = line.power(&azimuth_part::<M, AZ>(steer));
+                        *p = line.power_at(line_phase(steer));
                     }
                 }
                 None => work.skipped_range_bins += 1,

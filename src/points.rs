@@ -110,8 +110,9 @@ impl<const P: usize> PointCloud<P> {
         &self.points[..self.len]
     }
 
-    /// Forget the points and statistics (the first thing a chain's point stage does).
-    pub(crate) fn clear(&mut self) {
+    /// Forget the points and statistics (the first thing a chain's point stage does; a
+    /// caller does it for a frame it could not process, so no stale points remain).
+    pub fn clear(&mut self) {
         self.len = 0;
         self.stats = FrameStats::default();
     }

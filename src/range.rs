@@ -3,7 +3,7 @@
 
 use num_complex::Complex32;
 
-use crate::fft::fft_in_place;
+use crate::fft::fft_from;
 
 /// Range processing of one chirp of one virtual antenna, with its window table.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,15 +42,21 @@ impl<const N: usize> RangeFft<N> {
     /// assert!((out[1].norm() - 8000.0).abs() < 8.0);
     /// ```
     pub fn process(&self, samples: &[[i16; 2]; N], out: &mut [Complex32; N]) {
-        let mut sum = [0i64; 2];
+        // |Σ| ≤ N · 32768 ≤ 2^24 for N ≤ 512: i32 cannot overflow (an i64 sum is two adds
+        // per sample on a 32-bit core).
+        const { assert!(N <= 1 << 16) };
+        let mut sum = [0i32; 2];
         for s in samples.iter() {
-            sum[0] += i64::from(s[0]);
-            sum[1] += i64::from(s[1]);
+            sum[0] += i32::from(s[0]);
+            sum[1] += i32::from(s[1]);
         }
         let mean = Complex32::new(sum[0] as f32 / N as f32, sum[1] as f32 / N as f32);
-        for ((o, s), w) in out.iter_mut().zip(samples.iter()).zip(self.window.iter()) {
-            *o = (Complex32::new(f32::from(s[0]), f32::from(s[1])) - mean) * *w;
-        }
-        fft_in_place(out);
+        // DC removal and window inside the FFT's first pass (`n & (N − 1)` is `n`: the mask
+        // only lets the compiler drop the bounds checks).
+        let (w, x) = (&self.window, samples);
+        fft_from(out, |n| {
+            let (s, w) = (x[n & (N - 1)], w[n & (N - 1)]);
+            (Complex32::new(f32::from(s[0]), f32::from(s[1])) - mean) * w
+        });
     }
 }

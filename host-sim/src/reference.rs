@@ -639,7 +639,7 @@ pub enum CubePrecision {
     Exact,
     /// As the core stores them: per chirp (one virtual antenna, one loop) a power-of-two step
     /// `2^e`, the smallest with `max(|re|, |im|) / 2^e ≤ 32767`, and each component rounded
-    /// half away from zero to a multiple of it, within ±32767 steps.
+    /// to the nearest multiple of it (ties to even), within ±32767 steps.
     BlockFloat16,
 }
 
@@ -656,10 +656,8 @@ fn block_float16(spectrum: &mut [Complex64]) -> f64 {
     // peak / 32767 = f · 2^e with f in [1/2, 1): e = floor(log2(peak / 32767)) + 1.
     let e = ((peak / 32767.0).log2().floor() as i32 + 1).clamp(-125, 125);
     let step = 2f64.powi(e);
-    let q = |x: f64| {
-        let r = (x / step).abs() + 0.5;
-        r.floor().min(32767.0).copysign(x) * step
-    };
+    // Nearest step, ties to even (the core's FPU rounding), within ±32767 steps.
+    let q = |x: f64| (x / step).round_ties_even().clamp(-32767.0, 32767.0) * step;
     for v in spectrum.iter_mut() {
         *v = Complex64::new(q(v.re), q(v.im));
     }

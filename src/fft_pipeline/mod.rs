@@ -95,7 +95,7 @@ use crate::config::{sine_at, sine_grid, validate_bins_and_spans, ArrayLayout, Co
 use crate::cube::{Frame, Snapshots};
 use crate::doppler::signed_bin;
 use crate::elevation;
-use crate::fft::fft_in_place;
+use crate::fft::fft_from;
 use crate::frontend::Frontend;
 use crate::pipeline::Params;
 use crate::points::{power_db, ratio_db, Point, PointCloud};
@@ -434,10 +434,8 @@ impl<
         for (b, rd) in work.rd.iter_mut().enumerate().take(last + 1).skip(first) {
             frame.snapshots(b, &mut work.block);
             for x in work.block.iter() {
-                for ((o, v), w) in buf.iter_mut().zip(x.iter()).zip(self.doppler_window.iter()) {
-                    *o = *v * *w;
-                }
-                fft_in_place(&mut buf);
+                let w = &self.doppler_window;
+                fft_from(&mut buf, |n| x[n & (K - 1)] * w[n & (K - 1)]);
                 for (p, v) in rd.iter_mut().zip(buf.iter()) {
                     *p += v.norm_sqr();
                 }

@@ -64,3 +64,47 @@ fn the_resources_table_is_the_measured_budget() {
     }
     assert!(p.ram_total_bytes <= 1 << 20, "the 1 MiB claim");
 }
+
+/// README's Performance paragraph quotes the ColoRadar frame stage by stage for both chains.
+#[test]
+fn the_performance_figures_are_the_measured_budget() {
+    let layout = Layout::this_repo();
+    let budget = firmware::read_budget(&layout.budget_json()).unwrap_or_else(|e| panic!("{e}"));
+    let image = |chain: &str| {
+        budget
+            .presets
+            .iter()
+            .find(|p| p.preset.starts_with("coloradar") && p.chain == chain)
+            .unwrap_or_else(|| panic!("the budget holds the ColoRadar {chain} image"))
+    };
+    let (dbe, fft) = (image("dbe"), image("fft"));
+    let stage = |name: &str| {
+        let n = dbe
+            .instructions_per_stage
+            .get(name)
+            .unwrap_or_else(|| panic!("no stage {name} in the budget"));
+        format!("{:.1} M", *n as f64 / 1e6)
+    };
+    let ego = dbe
+        .instructions_per_stage
+        .get("ego_velocity")
+        .expect("the ego-velocity stage is measured");
+    let expected = format!(
+        "the DBE chain takes {:.1} M (ingest {}, azimuth Capon {}, CFAR {}, elevation + Doppler {}), \
+         the FFT chain {:.1} M; the ego-velocity stage after the points adds {} on that frame ({} points).",
+        dbe.instructions_per_frame as f64 / 1e6,
+        stage("ingest"),
+        stage("azimuth_capon"),
+        stage("cfar"),
+        stage("elevation_doppler"),
+        fft.instructions_per_frame as f64 / 1e6,
+        thousands(*ego),
+        dbe.points,
+    );
+    // README wraps its lines: compare with whitespace runs as single spaces.
+    let flat = |s: &str| s.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        flat(&readme()).contains(&flat(&expected)),
+        "README's Performance paragraph lacks the measured figures\n{expected}"
+    );
+}
