@@ -238,7 +238,7 @@ pub(crate) fn version_line(program: &str, args: &[&str], dir: &Path) -> String {
 // Build and run
 
 /// Run `cmd`, killing it after `timeout`; its stdout on success.
-fn run_command(mut cmd: Command, timeout: Duration) -> Result<String, FirmwareError> {
+pub(crate) fn run_command(mut cmd: Command, timeout: Duration) -> Result<String, FirmwareError> {
     let line = format!("{cmd:?}");
     let mut child = cmd
         .stdin(Stdio::null())

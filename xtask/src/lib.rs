@@ -39,10 +39,12 @@
 //! | [`protocol`] | parsing what an image prints ([`FirmwareRun`]) |
 //! | [`elf`] | section and static sizes from the ELF ([`ElfMemory`]) |
 //! | [`budget`] | measurement → `docs/budget.json` → the Markdown block, staleness checks |
+//! | [`ffi`] | the C API: header (cbindgen), static libraries, the host and Cortex-M4F C programs |
 
 pub mod budget;
 pub mod elf;
 mod error;
+pub mod ffi;
 pub mod frames;
 pub mod image;
 pub mod protocol;
@@ -51,10 +53,11 @@ pub use budget::*;
 pub use elf::*;
 pub(crate) use error::io_err;
 pub use error::FirmwareError;
+pub use ffi::*;
 pub(crate) use frames::write_if_changed;
 pub use frames::*;
-pub(crate) use image::version_line;
 pub use image::*;
+pub(crate) use image::{run_command, version_line};
 pub use protocol::*;
 
 /// The firmware's Rust target.

@@ -7,6 +7,9 @@
 //! cargo xtask firmware coloradar     # build and run one image, print its output lines
 //! cargo xtask firmware iwr6843 --board an500
 //! cargo xtask frames                 # write the frames the images embed (firmware/target/frames)
+//! cargo xtask header                 # regenerate ffi/dbe_radar.h (cbindgen); --check: exit 1 if stale
+//! cargo xtask c-example              # build ffi/c/example.c, run it on the TI capture
+//! cargo xtask c-firmware coloradar   # build the C firmware (arm-none-eabi-gcc), run it on QEMU
 //! ```
 
 use std::process::ExitCode;
@@ -44,6 +47,20 @@ enum Command {
     },
     /// Write the frames the images embed into firmware/target/frames (read by its build.rs).
     Frames,
+    /// Regenerate the C API header ffi/dbe_radar.h from ffi/src/lib.rs (cbindgen).
+    Header {
+        /// Compare instead of writing; exit 1 when the header is stale.
+        #[arg(long)]
+        check: bool,
+    },
+    /// Build the host C example (ffi/c/example.c) and run it on the TI capture.
+    CExample,
+    /// Build the C firmware (ffi/c/firmware, arm-none-eabi-gcc) and run it on QEMU's Cortex-M4F.
+    CFirmware {
+        /// The frame: coloradar (simulated) or iwr6843 (the TI capture).
+        #[arg(default_value = "coloradar")]
+        preset: String,
+    },
 }
 
 fn main() -> ExitCode {
@@ -80,6 +97,44 @@ fn run(command: Command) -> Result<bool, FirmwareError> {
         Command::Frames => {
             xtask::write_frames(&layout)?;
             println!("{}", layout.frames_dir().display());
+            Ok(true)
+        }
+        Command::Header { check: true } => {
+            if xtask::header_is_current(&layout)? {
+                println!("header: {} is up to date", layout.header().display());
+                Ok(true)
+            } else {
+                eprintln!(
+                    "stale: {} differs from what cbindgen makes of ffi/src/lib.rs; run `cargo xtask header`",
+                    layout.header().display()
+                );
+                Ok(false)
+            }
+        }
+        Command::Header { check: false } => {
+            println!("{}", xtask::write_header(&layout)?.display());
+            Ok(true)
+        }
+        Command::CExample => {
+            let exe = xtask::build_host_program(&layout, "example")?;
+            print!(
+                "{}",
+                xtask::run_host_program(&exe, &[&layout.iwr6843_capture()])?
+            );
+            Ok(true)
+        }
+        Command::CFirmware { preset } => {
+            let preset = match preset.as_str() {
+                "coloradar" => xtask::CPreset::Coloradar,
+                "iwr6843" => xtask::CPreset::Iwr6843,
+                other => {
+                    return Err(usage(format!(
+                        "unknown preset `{other}` (coloradar, iwr6843)"
+                    )))
+                }
+            };
+            let elf = xtask::build_c_firmware(&layout, preset)?;
+            print!("{}", xtask::run_c_firmware(&elf)?);
             Ok(true)
         }
     }

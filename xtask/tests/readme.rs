@@ -108,3 +108,18 @@ fn the_performance_figures_are_the_measured_budget() {
         "README's Performance paragraph lacks the measured figures\n{expected}"
     );
 }
+
+/// README's "Using the core from C" shows `ffi/c/example.c` complete, as it is.
+#[test]
+fn the_c_example_in_readme_is_the_tested_program() {
+    let layout = Layout::this_repo();
+    let path = layout.ffi().join("c").join("example.c");
+    let program =
+        std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let block = format!("```c\n{program}```");
+    assert!(
+        readme().contains(&block),
+        "README's C program differs from {}",
+        path.display()
+    );
+}
