@@ -599,3 +599,74 @@ fn a_ti_cfg_equivalent_to_the_calibration_gives_the_same_points() -> TestResult 
     assert!(err.contains("takes a folder"), "{err}");
     Ok(())
 }
+
+/// `--format mcap`: one MCAP file, one `foxglove.PointCloud` per frame at the sequence's
+/// timestamps, the CSV's points in the common column order; and the Python `mcap` package
+/// (which `.ci/run` installs) reads it as Foxglove would. Skipped outside CI without it.
+#[test]
+fn mcap_output_is_one_foxglove_point_cloud_per_frame() -> TestResult {
+    let tmp = tempfile::tempdir()?;
+    let seq = simulated(tmp.path(), "moving_sensor", "3");
+    let out = tmp.path().join("points");
+    ok(&["process", s(&seq), "--out", s(&out), "--format", "mcap,csv"]);
+    let mcap = out.join("points.mcap");
+    let clouds = host_sim::io::mcap::read_mcap(&mcap)?;
+    let times = std::fs::read_to_string(seq.join("single_chip/adc_samples/timestamps.txt"))?;
+    let times: Vec<f64> = times
+        .lines()
+        .map(|l| l.trim().parse().unwrap_or(f64::NAN))
+        .collect();
+    assert_eq!(clouds.len(), 3);
+    for (i, cloud) in clouds.iter().enumerate() {
+        assert_eq!(
+            cloud.log_time_ns,
+            (times[i] * 1e9).round() as u64,
+            "frame {i}"
+        );
+        let csv = host_sim::io::pointcloud::read_csv(&out.join(format!("csv/frame_{i}.csv")))?;
+        let want: Vec<[f32; 6]> = csv
+            .iter()
+            .map(|p| [p.x, p.y, p.z, p.intensity_db, p.doppler, p.snr_db].map(|v| v as f32))
+            .collect();
+        assert!(!want.is_empty(), "frame {i} has points");
+        assert_eq!(cloud.points, want, "frame {i}");
+    }
+
+    let script = r#"
+import base64, json, struct, sys
+from mcap.reader import make_reader
+with open(sys.argv[1], "rb") as f:
+    for schema, channel, message in make_reader(f).iter_messages():
+        m = json.loads(message.data)
+        assert schema.name == "foxglove.PointCloud" and schema.encoding == "jsonschema"
+        assert channel.topic == "/radar/points" and channel.message_encoding == "json"
+        names = [f["name"] for f in m["fields"]]
+        assert names == ["x", "y", "z", "intensity", "doppler", "snr"], names
+        data = base64.b64decode(m["data"])
+        x = struct.unpack_from("<f", data, 0)[0] if data else float("nan")
+        print(message.log_time, len(data) // m["point_stride"], repr(x))
+"#;
+    let run = Command::new("python3")
+        .args(["-c", script, s(&mcap)])
+        .output()?;
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    if !run.status.success() && stderr.contains("No module named 'mcap'") {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "the Python mcap package is missing; .ci/run installs it with pip"
+        );
+        eprintln!("skipped: Python mcap not installed");
+        return Ok(());
+    }
+    assert!(run.status.success(), "python mcap: {stderr}");
+    let text = String::from_utf8_lossy(&run.stdout);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 3, "{text}");
+    for (i, line) in lines.iter().enumerate() {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        assert_eq!(f[0].parse::<u64>()?, clouds[i].log_time_ns);
+        assert_eq!(f[1].parse::<usize>()?, clouds[i].points.len());
+        assert_eq!(f[2].parse::<f32>()?, clouds[i].points[0][0]);
+    }
+    Ok(())
+}

@@ -1086,7 +1086,7 @@ fn csv_round_trips_exactly() -> TestResult {
     assert_eq!(text.lines().next(), Some(CSV_HEADER));
     assert_eq!(
         CSV_HEADER,
-        "x,y,z,doppler,intensity_db,snr_db,range_bin,azimuth_bin,elevation_bin,doppler_bin"
+        "x,y,z,intensity_db,doppler,snr_db,range_bin,azimuth_bin,elevation_bin,doppler_bin"
     );
     assert_eq!(text.lines().count(), 10);
     assert_eq!(io::read_csv(&path)?, pts);
@@ -1176,18 +1176,31 @@ fn split_header<'a>(bytes: &'a [u8], end: &str) -> (Vec<String>, &'a [u8]) {
     )
 }
 
-fn floats(body: &[u8]) -> Vec<[f32; 5]> {
-    body.chunks_exact(20)
+/// The six-float rows (`x y z intensity doppler snr`) of a PCD or binary PLY body.
+fn floats(body: &[u8]) -> Vec<[f32; 6]> {
+    body.chunks_exact(24)
         .map(|c| {
-            let f =
-                |k: usize| f32::from_le_bytes([c[4 * k], c[4 * k + 1], c[4 * k + 2], c[4 * k + 3]]);
-            [f(0), f(1), f(2), f(3), f(4)]
+            std::array::from_fn(|k| {
+                f32::from_le_bytes([c[4 * k], c[4 * k + 1], c[4 * k + 2], c[4 * k + 3]])
+            })
         })
         .collect()
 }
 
+/// A point's six columns of PCD, PLY and MCAP, as f32.
+fn as_f32_6(p: &PointRecord) -> [f32; 6] {
+    [
+        p.x as f32,
+        p.y as f32,
+        p.z as f32,
+        p.intensity_db as f32,
+        p.doppler as f32,
+        p.snr_db as f32,
+    ]
+}
+
 #[test]
-fn pcd_is_pcl_binary_with_five_float_fields() -> TestResult {
+fn pcd_is_pcl_binary_with_six_float_fields() -> TestResult {
     let pts = points(6, 0.0);
     let dir = tmp();
     let path = dir.path().join("cloud.pcd");
@@ -1197,10 +1210,10 @@ fn pcd_is_pcl_binary_with_five_float_fields() -> TestResult {
     let h: Vec<&str> = header.iter().map(String::as_str).collect();
     for want in [
         "VERSION 0.7",
-        "FIELDS x y z intensity doppler",
-        "SIZE 4 4 4 4 4",
-        "TYPE F F F F F",
-        "COUNT 1 1 1 1 1",
+        "FIELDS x y z intensity doppler snr",
+        "SIZE 4 4 4 4 4 4",
+        "TYPE F F F F F F",
+        "COUNT 1 1 1 1 1 1",
         "WIDTH 6",
         "HEIGHT 1",
         "POINTS 6",
@@ -1208,15 +1221,15 @@ fn pcd_is_pcl_binary_with_five_float_fields() -> TestResult {
     ] {
         assert!(h.contains(&want), "PCD header lacks `{want}`: {h:?}");
     }
-    assert_eq!(body.len(), 6 * 20);
-    assert_eq!(floats(body), pts.iter().map(as_f32).collect::<Vec<_>>());
+    assert_eq!(body.len(), 6 * 24);
+    assert_eq!(floats(body), pts.iter().map(as_f32_6).collect::<Vec<_>>());
     Ok(())
 }
 
 #[test]
 fn ply_binary_and_ascii_hold_the_points() -> TestResult {
     let pts = points(4, 0.5);
-    let want: Vec<[f32; 5]> = pts.iter().map(as_f32).collect();
+    let want: Vec<[f32; 6]> = pts.iter().map(as_f32_6).collect();
     let dir = tmp();
     let props = [
         "property float x",
@@ -1224,6 +1237,7 @@ fn ply_binary_and_ascii_hold_the_points() -> TestResult {
         "property float z",
         "property float intensity",
         "property float doppler",
+        "property float snr",
     ];
 
     let bin = dir.path().join("cloud.ply");
@@ -1246,11 +1260,11 @@ fn ply_binary_and_ascii_hold_the_points() -> TestResult {
     let text = fs::read_to_string(&asc)?;
     let (header, body) = text.split_once("end_header\n").ok_or("no end_header")?;
     assert!(header.contains("format ascii 1.0\n"));
-    let rows: Vec<[f32; 5]> = body
+    let rows: Vec<[f32; 6]> = body
         .lines()
         .map(|l| {
             let v: Vec<f32> = l.split(' ').map(|t| t.parse().expect("float")).collect();
-            [v[0], v[1], v[2], v[3], v[4]]
+            [v[0], v[1], v[2], v[3], v[4], v[5]]
         })
         .collect();
     assert_eq!(rows, want);
@@ -1273,4 +1287,69 @@ fn absurd_sensor_sizes_are_rejected_without_overflow() {
         "huge frame",
     );
     assert!(matches!(e, IoError::Invalid { .. }));
+}
+
+#[test]
+fn mcap_holds_one_foxglove_point_cloud_per_frame_with_its_time() -> TestResult {
+    use host_sim::io::mcap::{read_mcap, write_mcap, McapFrame, POINT_STRIDE};
+    let frames = [points(5, 0.0), Vec::new(), points(3, 0.5)];
+    let times = [1_600_000_000.25, 1_600_000_000.35, 1_600_000_000.45];
+    let input: Vec<McapFrame<'_>> = frames
+        .iter()
+        .zip(times)
+        .map(|(p, t)| McapFrame {
+            time_s: t,
+            points: p,
+        })
+        .collect();
+    let dir = tmp();
+    let path = dir.path().join("run.mcap");
+    write_mcap(&path, &input)?;
+    let back = read_mcap(&path)?;
+    assert_eq!(back.len(), 3);
+    assert_eq!(POINT_STRIDE, 24);
+    for ((cloud, pts), t) in back.iter().zip(&frames).zip(times) {
+        // f64 seconds → ns: exact to the f64 of the product, rounded.
+        assert_eq!(cloud.log_time_ns, (t * 1e9).round() as u64);
+        assert_eq!(
+            cloud.points,
+            pts.iter().map(as_f32_6).collect::<Vec<_>>(),
+            "x y z intensity doppler snr, in that order"
+        );
+    }
+
+    // A point that is not finite as f32, or a time MCAP cannot hold, is an error naming the
+    // frame; nothing is written.
+    let mut bad = points(2, 0.0);
+    bad[1].snr_db = f64::NAN;
+    let bad_path = dir.path().join("bad.mcap");
+    let e = expect_err(
+        write_mcap(
+            &bad_path,
+            &[McapFrame {
+                time_s: 0.0,
+                points: &bad,
+            }],
+        ),
+        "snr",
+    );
+    assert!(e.to_string().contains("frame 0, point 1"), "{e}");
+    let e = expect_err(
+        write_mcap(
+            &bad_path,
+            &[McapFrame {
+                time_s: -1.0,
+                points: &frames[0],
+            }],
+        ),
+        "timestamp",
+    );
+    assert!(e.to_string().contains("frame 0"), "{e}");
+    assert!(!bad_path.exists());
+
+    // Not an MCAP file: an error naming it.
+    std::fs::write(&bad_path, b"not mcap")?;
+    let e = expect_err(read_mcap(&bad_path), "not MCAP");
+    assert!(e.to_string().contains("bad.mcap"), "{e}");
+    Ok(())
 }

@@ -7,6 +7,7 @@ use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use host_sim::cloud::PointRecord;
 use host_sim::core_run::{Chain, CoreRunner};
+use host_sim::io::mcap::{write_mcap, McapFrame};
 use host_sim::io::pointcloud::{write_coloradar_bin, write_csv, write_pcd, write_ply, PlyEncoding};
 use host_sim::io::{write_file_atomic, StagedDir};
 use host_sim::sensor::SensorConfig;
@@ -36,6 +37,8 @@ pub enum Format {
     Pcd,
     /// `OUT/ply/frame_<i>.ply` (binary little-endian).
     Ply,
+    /// `OUT/points.mcap`: one `foxglove.PointCloud` per frame on `/radar/points` (Foxglove).
+    Mcap,
 }
 
 /// Arguments of `dbe process`.
@@ -133,6 +136,9 @@ pub fn progress(len: u64, label: &str) -> ProgressBar {
     bar
 }
 
+/// The MCAP file of `--format mcap`, in the output folder.
+pub const MCAP_FILE: &str = "points.mcap";
+
 /// Write `results` in `formats` under the staged folder `dir`.
 pub fn write_outputs(dir: &Path, results: &[FrameResult], formats: &[Format]) -> Result<()> {
     for format in formats {
@@ -151,6 +157,16 @@ pub fn write_outputs(dir: &Path, results: &[FrameResult], formats: &[Format]) ->
                     times.push_str(&format!("{}\n", r.time_s));
                 }
                 write_file_atomic(&base.join("timestamps.txt"), times.as_bytes())?;
+            }
+            Format::Mcap => {
+                let frames: Vec<McapFrame<'_>> = results
+                    .iter()
+                    .map(|r| McapFrame {
+                        time_s: r.time_s,
+                        points: &r.points,
+                    })
+                    .collect();
+                write_mcap(&dir.join(MCAP_FILE), &frames)?;
             }
             Format::Csv | Format::Pcd | Format::Ply => {
                 let (sub, ext) = match format {

@@ -27,6 +27,7 @@ pub mod atomic;
 pub mod calib;
 pub mod coloradar;
 pub mod dca1000;
+pub mod mcap;
 pub mod navigation;
 pub mod pointcloud;
 pub mod ticfg;

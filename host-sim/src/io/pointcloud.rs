@@ -4,8 +4,12 @@
 //! |---|---|---|
 //! | ColoRadar `.bin` | float32 LE `[x, y, z, intensity, doppler]`, no header; intensity = `intensity_db` | f32 |
 //! | CSV | every [`PointRecord`] field, header [`CSV_HEADER`] | f64, shortest round-trip |
-//! | PCD | PCL v0.7 `DATA binary`, fields `x y z intensity doppler`, `F` 4 bytes | f32 |
-//! | PLY | `binary_little_endian 1.0` or `ascii 1.0`, float `x y z intensity doppler` | f32 |
+//! | PCD | PCL v0.7 `DATA binary`, fields `x y z intensity doppler snr`, `F` 4 bytes | f32 |
+//! | PLY | `binary_little_endian 1.0` or `ascii 1.0`, float `x y z intensity doppler snr` | f32 |
+//!
+//! Every format has its columns in one order, `x y z intensity doppler snr` (the ColoRadar
+//! `.bin`, the dataset's own format, stops after doppler; CSV adds the bins after snr; MCAP,
+//! `super::mcap`, packs the same six).
 //!
 //! Writers refuse points whose written values are not finite (an [`IoError::Invalid`] naming
 //! the output file and the point index) and write atomically (see [`super::atomic`]).
@@ -24,37 +28,36 @@ pub const POINTCLOUDS: &str = "single_chip/pointclouds";
 pub const CLOUD_PREFIX: &str = "radar_pointcloud_";
 /// The exact CSV header line.
 pub const CSV_HEADER: &str =
-    "x,y,z,doppler,intensity_db,snr_db,range_bin,azimuth_bin,elevation_bin,doppler_bin";
-/// Bytes per point of the ColoRadar `.bin`, PCD and binary PLY formats (5 × float32).
+    "x,y,z,intensity_db,doppler,snr_db,range_bin,azimuth_bin,elevation_bin,doppler_bin";
+/// Bytes per point of the ColoRadar `.bin` (5 × float32; PCD and binary PLY add snr: 24).
 pub const POINT_BYTES: usize = 20;
 
-/// The five float32 values of the binary formats: `[x, y, z, intensity_db, doppler]`; fails if
-/// one is not finite as f32.
-fn five(path: &Path, i: usize, p: &PointRecord) -> Result<[f32; 5], IoError> {
-    let v = [
-        p.x as f32,
-        p.y as f32,
-        p.z as f32,
-        p.intensity_db as f32,
-        p.doppler as f32,
-    ];
+/// Names of the float32 columns of the binary formats, in the one order of every format.
+const COLUMNS: [&str; 6] = ["x", "y", "z", "intensity_db", "doppler", "snr_db"];
+
+/// The first `F` float32 columns of `p` (`x y z intensity doppler snr`): 5 for the ColoRadar
+/// `.bin`, 6 for PCD and PLY; fails if one is not finite as f32.
+fn columns<const F: usize>(path: &Path, i: usize, p: &PointRecord) -> Result<[f32; F], IoError> {
+    const { assert!(F <= 6) };
+    let all = [p.x, p.y, p.z, p.intensity_db, p.doppler, p.snr_db];
+    let v: [f32; F] = std::array::from_fn(|k| all[k] as f32);
     if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-        let name = ["x", "y", "z", "intensity_db", "doppler"][k];
         return Err(IoError::invalid(
             path,
             format!(
-                "point {i}: {name} = {} is not a finite float32; expected finite values",
-                [p.x, p.y, p.z, p.intensity_db, p.doppler][k]
+                "point {i}: {} = {} is not a finite float32; expected finite values",
+                COLUMNS[k], all[k]
             ),
         ));
     }
     Ok(v)
 }
 
-fn binary_points(path: &Path, points: &[PointRecord]) -> Result<Vec<u8>, IoError> {
-    let mut out = Vec::with_capacity(points.len() * POINT_BYTES);
+/// The points as little-endian float32 rows of their first `F` columns.
+fn binary_points<const F: usize>(path: &Path, points: &[PointRecord]) -> Result<Vec<u8>, IoError> {
+    let mut out = Vec::with_capacity(points.len() * 4 * F);
     for (i, p) in points.iter().enumerate() {
-        for v in five(path, i, p)? {
+        for v in columns::<F>(path, i, p)? {
             out.extend_from_slice(&v.to_le_bytes());
         }
     }
@@ -63,7 +66,7 @@ fn binary_points(path: &Path, points: &[PointRecord]) -> Result<Vec<u8>, IoError
 
 /// Write one ColoRadar point-cloud file (float32 LE `[x, y, z, intensity, doppler]` per point).
 pub fn write_coloradar_bin(path: &Path, points: &[PointRecord]) -> Result<(), IoError> {
-    write_file_atomic(path, &binary_points(path, points)?)
+    write_file_atomic(path, &binary_points::<5>(path, points)?)
 }
 
 /// Read one ColoRadar point-cloud file. Only `x, y, z, intensity_db, doppler` are stored; the
@@ -152,7 +155,7 @@ impl ColoradarCloudWriter {
                 ),
             ));
         }
-        let bytes = binary_points(&target.join(POINTCLOUDS).join("data").join(&name), points)?;
+        let bytes = binary_points::<5>(&target.join(POINTCLOUDS).join("data").join(&name), points)?;
         write_plain(&self.data.join(name), &bytes)?;
         let _ = writeln!(self.times, "{time_s}");
         self.last_time = time_s;
@@ -234,8 +237,8 @@ pub fn write_csv(path: &Path, points: &[PointRecord]) -> Result<(), IoError> {
             ("x", p.x),
             ("y", p.y),
             ("z", p.z),
-            ("doppler", p.doppler),
             ("intensity_db", p.intensity_db),
+            ("doppler", p.doppler),
             ("snr_db", p.snr_db),
         ];
         if let Some((name, v)) = floats.iter().find(|(_, v)| !v.is_finite()) {
@@ -250,8 +253,8 @@ pub fn write_csv(path: &Path, points: &[PointRecord]) -> Result<(), IoError> {
             p.x,
             p.y,
             p.z,
-            p.doppler,
             p.intensity_db,
+            p.doppler,
             p.snr_db,
             p.range_bin,
             p.azimuth_bin,
@@ -325,8 +328,8 @@ pub fn read_csv(path: &Path) -> Result<Vec<PointRecord>, IoError> {
             x: float(0)?,
             y: float(1)?,
             z: float(2)?,
-            doppler: float(3)?,
-            intensity_db: float(4)?,
+            intensity_db: float(3)?,
+            doppler: float(4)?,
             snr_db: float(5)?,
             range_bin: uint(6)?,
             azimuth_bin: uint(7)?,
@@ -339,31 +342,32 @@ pub fn read_csv(path: &Path) -> Result<Vec<PointRecord>, IoError> {
     Ok(out)
 }
 
-/// Write points as a PCL PCD v0.7 file, `DATA binary`, fields `x y z intensity doppler`
+/// Write points as a PCL PCD v0.7 file, `DATA binary`, fields `x y z intensity doppler snr`
 /// (float32 each), unorganised (`HEIGHT 1`).
 pub fn write_pcd(path: &Path, points: &[PointRecord]) -> Result<(), IoError> {
     let n = points.len();
     let mut out = format!(
         "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n\
-         FIELDS x y z intensity doppler\nSIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\n\
+         FIELDS x y z intensity doppler snr\nSIZE 4 4 4 4 4 4\nTYPE F F F F F F\n\
+         COUNT 1 1 1 1 1 1\n\
          WIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n"
     )
     .into_bytes();
-    out.extend_from_slice(&binary_points(path, points)?);
+    out.extend_from_slice(&binary_points::<6>(path, points)?);
     write_file_atomic(path, &out)
 }
 
 /// PLY body encoding.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PlyEncoding {
-    /// `format binary_little_endian 1.0`: 5 float32 per vertex.
+    /// `format binary_little_endian 1.0`: 6 float32 per vertex.
     BinaryLittleEndian,
     /// `format ascii 1.0`: one line per vertex, shortest round-trip f32 text.
     Ascii,
 }
 
 /// Write points as a PLY file: `element vertex N` with float properties
-/// `x y z intensity doppler`.
+/// `x y z intensity doppler snr`.
 pub fn write_ply(
     path: &Path,
     points: &[PointRecord],
@@ -375,21 +379,21 @@ pub fn write_ply(
     };
     let mut out = format!(
         "ply\nformat {format} 1.0\ncomment dbe-radar point cloud: x forward, y left, z up [m], \
-         intensity [dB], doppler [m/s, positive receding]\nelement vertex {}\n\
+         intensity [dB], doppler [m/s, positive receding], snr [dB]\nelement vertex {}\n\
          property float x\nproperty float y\nproperty float z\nproperty float intensity\n\
-         property float doppler\nend_header\n",
+         property float doppler\nproperty float snr\nend_header\n",
         points.len()
     );
     match encoding {
         PlyEncoding::BinaryLittleEndian => {
             let mut bytes = out.into_bytes();
-            bytes.extend_from_slice(&binary_points(path, points)?);
+            bytes.extend_from_slice(&binary_points::<6>(path, points)?);
             write_file_atomic(path, &bytes)
         }
         PlyEncoding::Ascii => {
             for (i, p) in points.iter().enumerate() {
-                let [x, y, z, intensity, doppler] = five(path, i, p)?;
-                let _ = writeln!(out, "{x} {y} {z} {intensity} {doppler}");
+                let [x, y, z, intensity, doppler, snr] = columns::<6>(path, i, p)?;
+                let _ = writeln!(out, "{x} {y} {z} {intensity} {doppler} {snr}");
             }
             write_file_atomic(path, out.as_bytes())
         }
