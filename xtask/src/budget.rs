@@ -37,7 +37,51 @@ pub struct Budget {
     pub instructions_per_tick: u64,
     /// One entry per image ([`Image::ALL`] order): the DBE images, then the FFT ones.
     pub presets: Vec<PresetBudget>,
+    /// The images on every core: instructions per frame and the clock 10 frames per second
+    /// need under a stated cycles-per-instruction assumption.
+    #[serde(default)]
+    pub cores: Vec<CoreBudget>,
 }
+
+/// One core the images ran on.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CoreBudget {
+    /// The core (`Cortex-M4F`, `Cortex-M7`).
+    pub core: String,
+    /// QEMU board and CPU it was measured on.
+    pub board: String,
+    /// The images' Rust target.
+    pub target: String,
+    /// Assumed cycles per instruction of this chain's code on this core (not measured:
+    /// QEMU models no pipeline; see [`CORES`]).
+    pub assumed_cpi: f64,
+    /// Why that CPI.
+    pub cpi_basis: String,
+    /// Instructions per frame of each image on this core (image name → count).
+    pub instructions_per_frame: BTreeMap<String, u64>,
+    /// Clock for 10 frames per second: instructions × 10 × CPI, MHz (image name → MHz).
+    pub clock_mhz_for_10_fps: BTreeMap<String, f64>,
+}
+
+/// The cores of the budget: board, and the CPI assumed for the chains' code (FPU and
+/// load-heavy loops, zero-wait memory). Cortex-M4F: single-issue 3-stage pipeline, FPU
+/// arithmetic 1 cycle, loads 2 (1 when pipelined), VDIV/VSQRT 14, taken branches 2–4: 1.25.
+/// Cortex-M7: dual-issue 6-stage pipeline with TCM, about 1.5× the M4's work per cycle
+/// (Arm's CoreMark/MHz, 5.01 vs 3.42): 0.75 (rounded to the safe side of 1.25 / 1.47).
+pub const CORES: [(&str, Board, f64, &str); 2] = [
+    (
+        "Cortex-M4F",
+        Board::An386,
+        1.25,
+        "single-issue, FPU ops 1 cycle, loads 2 (1 pipelined), VDIV/VSQRT 14, taken branches 2–4; zero-wait memory",
+    ),
+    (
+        "Cortex-M7",
+        Board::An500,
+        0.75,
+        "dual-issue, ~1.5× the M4's work per cycle (CoreMark/MHz 5.01 vs 3.42); TCM, no cache misses",
+    ),
+];
 
 /// The measured budget of one image (a preset and a chain).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -153,6 +197,37 @@ pub fn measure(layout: &Layout) -> Result<(Budget, Vec<Measurement>, AdcFrame), 
     let per_tick = measurements
         .first()
         .map_or(0, |m| m.run.instructions_per_tick);
+    let mut cores = Vec::new();
+    for (core, board, cpi, basis) in CORES {
+        let mut counts = BTreeMap::new();
+        for m in &measurements {
+            let n = if board == Board::An386 {
+                m.budget.instructions_per_frame
+            } else {
+                let run = parse_output(&run(layout, m.image, board)?)?;
+                if run.points != m.run.points {
+                    return Err(FirmwareError::Output {
+                        line: 0,
+                        message: format!("{} on {core}: points differ from the M4F's", m.image),
+                    });
+                }
+                run.stages.get("total").copied().unwrap_or(0)
+            };
+            counts.insert(m.image.name().to_string(), n);
+        }
+        cores.push(CoreBudget {
+            core: core.into(),
+            board: format!("{} ({})", board.machine(), board.cpu()),
+            target: TARGET.into(),
+            assumed_cpi: cpi,
+            cpi_basis: basis.into(),
+            clock_mhz_for_10_fps: counts
+                .iter()
+                .map(|(k, &n)| (k.clone(), clock_mhz(n, cpi)))
+                .collect(),
+            instructions_per_frame: counts,
+        });
+    }
     let fw = layout.firmware();
     let budget = Budget {
         method: "QEMU -icount shift=0,sleep=off (1 guest instruction = 1 ns of virtual time); \
@@ -167,8 +242,15 @@ pub fn measure(layout: &Layout) -> Result<(Budget, Vec<Measurement>, AdcFrame), 
         profile: "release: opt-level 3, fat LTO, codegen-units 1, panic abort".into(),
         instructions_per_tick: per_tick,
         presets: measurements.iter().map(|m| m.budget.clone()).collect(),
+        cores,
     };
     Ok((budget, measurements, frame))
+}
+
+/// MHz for 10 frames per second of `instructions` per frame at `cpi` cycles each, rounded to
+/// whole MHz (the assumption is not finer than that).
+pub fn clock_mhz(instructions: u64, cpi: f64) -> f64 {
+    (instructions as f64 * 10.0 * cpi / 1e6).round()
 }
 
 /// `1234567` → `1,234,567`.
@@ -472,7 +554,57 @@ pub fn render_markdown(budget: &Budget) -> String {
         s.push('\n');
         stage_table(&mut s, "instructions, FFT chain", &fft, FFT_STAGES);
     }
+    if !budget.cores.is_empty() {
+        cores_table(&mut s, budget);
+    }
     s
+}
+
+/// Per core: the images' instructions per frame (measured on that core's board) and the clock
+/// that 10 frames per second need under the core's assumed CPI (derived, not measured).
+fn cores_table(s: &mut String, budget: &Budget) {
+    let _ = writeln!(
+        s,
+        "\nPer core: instructions per frame measured on that core's QEMU board (the same \
+         `{TARGET}` images; QEMU counts instructions, so the counts agree), and the clock 10 \
+         frames per second need, **derived** as instructions × 10 × an assumed cycles per \
+         instruction (CPI; QEMU models no pipeline, so cycles are not measured); each cell is \
+         instructions per frame → MHz for 10 frames per second. Flash, RAM and stack are the \
+         images' above on every core.\n"
+    );
+    let names: Vec<&str> = budget.presets.iter().map(|p| p.preset.as_str()).collect();
+    let _ = writeln!(
+        s,
+        "| core, QEMU board | assumed CPI | {} |",
+        names
+            .iter()
+            .map(|n| format!("`{n}`"))
+            .collect::<Vec<_>>()
+            .join(" | ")
+    );
+    let _ = writeln!(s, "|---|---:|{}", "---:|".repeat(names.len()));
+    for c in &budget.cores {
+        let cells: Vec<String> = names
+            .iter()
+            .map(|n| {
+                let i = c.instructions_per_frame.get(*n).copied().unwrap_or(0);
+                let mhz = c.clock_mhz_for_10_fps.get(*n).copied().unwrap_or(0.0);
+                format!("{:.1} M → {mhz:.0} MHz", i as f64 / 1e6)
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "| {}, {} | {} | {} |",
+            c.core,
+            c.board,
+            c.assumed_cpi,
+            cells.join(" | ")
+        );
+    }
+    s.push('\n');
+    for c in &budget.cores {
+        let _ = writeln!(s, "- {} CPI {}: {}.", c.core, c.assumed_cpi, c.cpi_basis);
+    }
 }
 
 /// `doc` with the text between the [`BLOCK_BEGIN`] and [`BLOCK_END`] lines replaced by

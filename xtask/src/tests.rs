@@ -127,8 +127,36 @@ fn markdown_keeps_each_chain_in_its_own_table() {
                 &[("angles", 100), ("process", 2000), ("total", 4000)],
             ),
         ],
+        cores: vec![CoreBudget {
+            core: "Cortex-M7".into(),
+            board: "b".into(),
+            target: TARGET.into(),
+            assumed_cpi: 0.75,
+            cpi_basis: "why".into(),
+            instructions_per_frame: [
+                ("coloradar".to_string(), 5000),
+                ("coloradar-fft".to_string(), 4000),
+            ]
+            .into_iter()
+            .collect(),
+            clock_mhz_for_10_fps: [
+                ("coloradar".to_string(), 0.0),
+                ("coloradar-fft".to_string(), 0.0),
+            ]
+            .into_iter()
+            .collect(),
+        }],
     };
     let md = render_markdown(&budget);
+    // The per-core table: one column per image, count and clock per cell.
+    assert!(
+        md.contains("| core, QEMU board | assumed CPI | `coloradar` | `coloradar-fft` |"),
+        "{md}"
+    );
+    assert!(
+        md.contains("| Cortex-M7, b | 0.75 | 0.0 M → 0 MHz | 0.0 M → 0 MHz |"),
+        "{md}"
+    );
     assert!(
         md.contains("| memory (bytes) | coloradar | coloradar-fft |"),
         "{md}"
@@ -161,6 +189,14 @@ fn markdown_keeps_each_chain_in_its_own_table() {
             md.contains("`coloradar` + 270 = 1,570 bytes of static RAM, a frame 5,000 + 2,000 = 7,000 instructions"),
             "{md}"
         );
+}
+
+#[test]
+fn the_clock_for_10_fps_is_instructions_times_10_times_cpi() {
+    // 29.4 M instructions at CPI 1.25: 367.5 MHz, rounded to whole MHz.
+    assert_eq!(clock_mhz(29_400_000, 1.25), 368.0);
+    assert_eq!(clock_mhz(16_000_000, 1.25), 200.0);
+    assert_eq!(clock_mhz(0, 0.75), 0.0);
 }
 
 #[test]
