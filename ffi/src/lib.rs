@@ -812,6 +812,18 @@ unsafe fn init_state<
     Ok(())
 }
 
+/// The radar behind `handle` (an entry point's argument), or return its status from that
+/// entry point.
+macro_rules! radar_or_return {
+    ($handle:expr) => {
+        // SAFETY: `radar` checks the handle; the entry point's caller promised the rest.
+        match unsafe { radar($handle) } {
+            Ok(r) => r,
+            Err(e) => return e,
+        }
+    };
+}
+
 /// The radar behind a handle, if the handle is one.
 ///
 /// # Safety
@@ -1022,11 +1034,7 @@ pub unsafe extern "C" fn dbe_set_coupling(
     coupling: *const f32,
     values: usize,
 ) -> dbe_status_t {
-    // SAFETY: `radar` checks the handle.
-    let r = match unsafe { radar(handle) } {
-        Ok(r) => r,
-        Err(e) => return e,
-    };
+    let r = radar_or_return!(handle);
     if values > 0 && coupling.is_null() {
         return DBE_ERR_NULL_POINTER;
     }
@@ -1053,11 +1061,7 @@ pub unsafe extern "C" fn dbe_push_chirp(
     iq: *const i16,
     values: usize,
 ) -> dbe_status_t {
-    // SAFETY: `radar` checks the handle.
-    let r = match unsafe { radar(handle) } {
-        Ok(r) => r,
-        Err(e) => return e,
-    };
+    let r = radar_or_return!(handle);
     let Some(sizes) = header_sizes(handle) else {
         return DBE_ERR_BAD_HANDLE;
     };
@@ -1108,11 +1112,7 @@ pub unsafe extern "C" fn dbe_process_frame(
     handle: *mut dbe_t,
     stats: *mut dbe_frame_stats_t,
 ) -> dbe_status_t {
-    // SAFETY: `radar` checks the handle.
-    let r = match unsafe { radar(handle) } {
-        Ok(r) => r,
-        Err(e) => return e,
-    };
+    let r = radar_or_return!(handle);
     let (status, s) = r.process();
     if !stats.is_null() {
         // SAFETY: non-null; the caller guarantees it is writable.
@@ -1134,11 +1134,7 @@ pub unsafe extern "C" fn dbe_points(
     capacity: usize,
     count: *mut usize,
 ) -> dbe_status_t {
-    // SAFETY: `radar` checks the handle.
-    let r = match unsafe { radar(handle) } {
-        Ok(r) => r,
-        Err(e) => return e,
-    };
+    let r = radar_or_return!(handle);
     if count.is_null() || (capacity > 0 && out.is_null()) {
         return DBE_ERR_NULL_POINTER;
     }
@@ -1159,11 +1155,7 @@ pub unsafe extern "C" fn dbe_points(
 /// `handle` came from `dbe_init`; `out` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn dbe_ego_velocity(handle: *mut dbe_t, out: *mut dbe_ego_t) -> dbe_status_t {
-    // SAFETY: `radar` checks the handle.
-    let r = match unsafe { radar(handle) } {
-        Ok(r) => r,
-        Err(e) => return e,
-    };
+    let r = radar_or_return!(handle);
     if out.is_null() {
         return DBE_ERR_NULL_POINTER;
     }
