@@ -380,6 +380,20 @@ typedef struct {
    * An elevation peak is kept within this many dB of the strongest.
    */
   float elevation_peak_range_db;
+  /**
+   * Doppler test, dB: a detection's azimuth beam must peak this far over its Doppler
+   * spectrum's median (0: off, the paper's chain).
+   */
+  float doppler_test_db;
+  /**
+   * Coherent targets: detections of one range bin whose azimuth beams' Dopplers lie within
+   * this many bins are resolved on the FB-averaged sub-array (0: off, the paper's chain).
+   */
+  float coherent_doppler_bins;
+  /**
+   * Spatial smoothing of the azimuth covariance over two sub-lines (off by default).
+   */
+  uint8_t spatial_smoothing;
 } dbe_params_t;
 
 /**
@@ -428,6 +442,10 @@ typedef struct {
    * Detections that gave no point.
    */
   uint32_t detections_without_point;
+  /**
+   * Detections whose azimuth beam failed the Doppler test.
+   */
+  uint32_t doppler_rejected;
 } dbe_frame_stats_t;
 
 /**

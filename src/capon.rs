@@ -127,11 +127,18 @@ pub struct LineSpectrum<const D: usize> {
 impl<const D: usize> LineSpectrum<D> {
     /// The diagonal sums of `R⁻¹ = L⁻ᴴ·L⁻¹` of `capon`.
     pub fn new(capon: &Capon<D>) -> Self {
+        Self::leading(capon, D)
+    }
+
+    /// The diagonal sums of the leading `n × n` block of `R⁻¹`, for a covariance whose rows
+    /// beyond `n` are padding ([`crate::subarray`]): the spectrum of the `n`-element line.
+    pub fn leading(capon: &Capon<D>, n: usize) -> Self {
         let l = &capon.linv;
+        let n = n.min(D);
         let mut diagonals = [Complex32::new(0.0, 0.0); D];
-        for (d, c) in diagonals.iter_mut().enumerate() {
+        for (d, c) in diagonals.iter_mut().enumerate().take(n) {
             // c_d = Σ_j R⁻¹[j+d][j] = Σ_j Σ_{k ≥ j+d} conj(L⁻¹[k][j+d]) · L⁻¹[k][j].
-            for j in 0..D - d {
+            for j in 0..n - d {
                 for k in (j + d)..D {
                     *c += l[k][j + d].conj() * l[k][j];
                 }

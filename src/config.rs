@@ -307,6 +307,10 @@ pub enum Param {
     GridSize,
     /// `EgoParams` (gates, thresholds, RANSAC probabilities).
     EgoVelocity,
+    /// `Params::coherent_doppler_bins`.
+    CoherentDoppler,
+    /// `Params::doppler_test_db`.
+    DopplerTest,
 }
 
 impl Param {
@@ -333,6 +337,8 @@ impl Param {
             Param::Coupling => "coupling calibration",
             Param::GridSize => "angle grid size",
             Param::EgoVelocity => "ego-velocity parameters",
+            Param::CoherentDoppler => "coherent Doppler window (bins)",
+            Param::DopplerTest => "Doppler test threshold (dB)",
         }
     }
 }

@@ -108,12 +108,19 @@ pub fn forward_backward<const D: usize>(r: &mut Matrix<D>) {
 
 /// Diagonal loading `R + δ·I`, `δ = γ · tr(R) / D`; returns `δ`.
 pub fn load_diagonal<const D: usize>(r: &mut Matrix<D>, gamma: f32) -> f32 {
+    load_diagonal_rows(r, D, gamma)
+}
+
+/// Diagonal loading of the leading `n × n` block only: `δ = γ · tr / n` over that block, added
+/// to its diagonal; returns `δ`.
+pub fn load_diagonal_rows<const D: usize>(r: &mut Matrix<D>, n: usize, gamma: f32) -> f32 {
+    let n = n.min(D);
     let mut trace = 0.0f32;
-    for (i, row) in r.iter().enumerate() {
+    for (i, row) in r.iter().enumerate().take(n) {
         trace += row[i].re;
     }
-    let delta = gamma * trace / D as f32;
-    for (i, row) in r.iter_mut().enumerate() {
+    let delta = if n > 0 { gamma * trace / n as f32 } else { 0.0 };
+    for (i, row) in r.iter_mut().enumerate().take(n) {
         row[i].re += delta;
     }
     delta

@@ -58,18 +58,17 @@ impl Default for ElevationParams {
 /// Up to [`MAX_ELEVATION_PEAKS`] `(grid bin, power)` pairs, strongest first.
 pub type Peaks = [Option<(usize, f32)>; MAX_ELEVATION_PEAKS];
 
-/// Sweep the Capon spectrum of `capon` (the solver of the loaded full-array covariance)
-/// along the elevation grid at the azimuth steering row `az` (`el_steer[j]` the elevation
-/// factor of bin `j`) into `spectrum` (linear), and return its peaks.
+/// Sweep the Capon spectrum of `capon` (the solver of the loaded covariance) along the
+/// elevation grid, `steer(j)` the steering vector of bin `j` at the detection's azimuth, into
+/// `spectrum` (linear), and return its peaks.
 pub fn sweep<const M: usize, const NEL: usize>(
     capon: &Capon<M>,
-    az: &[Complex32; M],
-    el_steer: &[[Complex32; M]; NEL],
+    steer: impl Fn(usize) -> [Complex32; M],
     p: &ElevationParams,
     spectrum: &mut [f32; NEL],
 ) -> Peaks {
-    for (s, el) in spectrum.iter_mut().zip(el_steer.iter()) {
-        *s = capon.power(&steering(az, el));
+    for (j, s) in spectrum.iter_mut().enumerate() {
+        *s = capon.power(&steer(j));
     }
     strongest_interior_peaks(spectrum, usize::from(p.max_peaks), p.peak_range_db)
 }

@@ -63,6 +63,7 @@ pub mod points;
 pub mod presets;
 pub mod range;
 pub mod refine;
+pub mod subarray;
 pub mod tdm;
 pub mod window;
 

@@ -68,6 +68,9 @@ pub struct FrameStats {
     pub skipped_range_bins: u32,
     /// Detections that gave no point (no interior elevation peak, or every direction invalid).
     pub detections_without_point: u32,
+    /// Detections whose azimuth beam failed the Doppler test (DBE chain,
+    /// `Params::doppler_test_db`): no slow-time peak above the beam's noise.
+    pub doppler_rejected: u32,
 }
 
 /// A fixed-capacity point cloud.
@@ -101,6 +104,7 @@ impl<const P: usize> PointCloud<P> {
                 point_overflow: 0,
                 skipped_range_bins: 0,
                 detections_without_point: 0,
+                doppler_rejected: 0,
             },
         }
     }

@@ -33,11 +33,14 @@ fn coloradar_buffers() {
     let ws = 12 * 128 * 8 + 128 * 188 * 4 + 128 * 4 + MAX_TRAINING_CELLS * 4 + 128 * 12;
     assert_eq!(ws, 114_688);
     // (the detection list with its length and overflow count, padded to 8; the skipped-bin
-    // count)
+    // count; the beam Doppler of each detection, DET·4, for the coherence test)
     let list = round8(128 * 12 + W + 4);
-    assert_eq!(size_of::<p::Workspace>(), round8(ws - 128 * 12 + list + 4));
-    // Points: P · 32 + length + 6 statistics counters.
-    assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 24));
+    assert_eq!(
+        size_of::<p::Workspace>(),
+        round8(ws - 128 * 12 + list + 4 + 128 * 4)
+    );
+    // Points: P · 32 + length + 7 statistics counters.
+    assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 28));
     // Frontend: optional coupling table M·N·8, range window N·4, and small configuration
     // (waveform, geometry, array layout).
     let frontend_tables = 12 * 128 * 8 + 128 * 4;
@@ -67,8 +70,11 @@ fn iwr6843_buffers() {
     let ws = 12 * 64 * 8 + 256 * 188 * 4 + 256 * 4 + MAX_TRAINING_CELLS * 4 + 128 * 12;
     assert_eq!(ws, 205_312);
     let list = round8(128 * 12 + W + 4);
-    assert_eq!(size_of::<p::Workspace>(), round8(ws - 128 * 12 + list + 4));
-    assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 24));
+    assert_eq!(
+        size_of::<p::Workspace>(),
+        round8(ws - 128 * 12 + list + 4 + 128 * 4)
+    );
+    assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 28));
     let frontend_tables = 12 * 256 * 8 + 256 * 4;
     assert_eq!(frontend_tables, 25_600);
     let frontend = size_of::<p::Frontend>();

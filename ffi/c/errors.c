@@ -71,6 +71,10 @@ int main(void) {
     bad.antennas.num_tx = 2;
     EXPECT(dbe_init(P, state, sizeof state, cube, sizeof cube, &bad, &radar, &detail), DBE_ERR_ARRAY_SHAPE);
     bad = cfg;
+    bad.params.coherent_doppler_bins = -1.0f;
+    EXPECT(dbe_init(P, state, sizeof state, cube, sizeof cube, &bad, &radar, &detail), DBE_ERR_OUT_OF_RANGE);
+    CHECK(detail && strcmp(detail, "params.coherent_doppler_bins") == 0);
+    bad = cfg;
     bad.params.range_window = 42;
     EXPECT(dbe_init(P, state, sizeof state, cube, sizeof cube, &bad, &radar, &detail), DBE_ERR_OUT_OF_RANGE);
     CHECK(detail && strcmp(detail, "params.range_window") == 0);

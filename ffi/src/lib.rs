@@ -245,6 +245,14 @@ pub struct dbe_params_t {
     pub elevation_max_peaks: u8,
     /// An elevation peak is kept within this many dB of the strongest.
     pub elevation_peak_range_db: f32,
+    /// Doppler test, dB: a detection's azimuth beam must peak this far over its Doppler
+    /// spectrum's median (0: off, the paper's chain).
+    pub doppler_test_db: f32,
+    /// Coherent targets: detections of one range bin whose azimuth beams' Dopplers lie within
+    /// this many bins are resolved on the FB-averaged sub-array (0: off, the paper's chain).
+    pub coherent_doppler_bins: f32,
+    /// Spatial smoothing of the azimuth covariance over two sub-lines (off by default).
+    pub spatial_smoothing: u8,
 }
 
 /// Everything `dbe_init` configures.
@@ -301,6 +309,8 @@ pub struct dbe_frame_stats_t {
     pub skipped_range_bins: u32,
     /// Detections that gave no point.
     pub detections_without_point: u32,
+    /// Detections whose azimuth beam failed the Doppler test.
+    pub doppler_rejected: u32,
 }
 
 /// Ego-velocity status: a velocity from enough inliers.
@@ -462,6 +472,7 @@ impl<
             point_overflow: s.point_overflow,
             skipped_range_bins: s.skipped_range_bins,
             detections_without_point: s.detections_without_point,
+            doppler_rejected: s.doppler_rejected,
         };
         (result, stats)
     }
@@ -537,6 +548,8 @@ fn param_name(p: dbe_radar::config::Param) -> &'static [u8] {
         CfarQuantile => b"params.cfar_quantile\0",
         CfarThreshold => b"params.cfar_threshold_db\0",
         CfarWindow => b"params.cfar_guard/train\0",
+        CoherentDoppler => b"params.coherent_doppler_bins\0",
+        DopplerTest => b"params.doppler_test_db\0",
         _ => b"params\0",
     }
 }
@@ -638,6 +651,9 @@ fn params_c(p: &Params) -> dbe_params_t {
         cfar_edge_skip: p.cfar.edge_skip,
         elevation_max_peaks: p.elevation.max_peaks,
         elevation_peak_range_db: p.elevation.peak_range_db,
+        doppler_test_db: p.doppler_test_db,
+        coherent_doppler_bins: p.coherent_doppler_bins,
+        spatial_smoothing: u8::from(p.spatial_smoothing),
     }
 }
 
@@ -673,6 +689,9 @@ fn params_core(
     p.cfar.edge_skip = c.cfar_edge_skip;
     p.elevation.max_peaks = c.elevation_max_peaks;
     p.elevation.peak_range_db = c.elevation_peak_range_db;
+    p.coherent_doppler_bins = c.coherent_doppler_bins;
+    p.doppler_test_db = c.doppler_test_db;
+    p.spatial_smoothing = c.spatial_smoothing != 0;
     Ok(p)
 }
 

@@ -27,7 +27,7 @@
 //!                                                bin for dbe, natural Doppler bin for fft)
 //! P <range_bin> <az_bin> <el_bin> <doppler_bin> <x> <y> <z> <v> <power_db> <snr_db>
 //! V <vx> <vy> <vz> <inliers> <points> <status>   the radar's velocity from the points (ego.rs)
-//! F <detections> <detection_overflow> <points> <point_overflow> <skipped_range_bins> <detections_without_point>
+//! F <detections> <detection_overflow> <points> <point_overflow> <skipped_range_bins> <detections_without_point> <doppler_rejected>
 //! S <stage> <instructions> <ticks>               one stage's cost
 //! M <what> <bytes>                               stack_setup, stack_frame
 //! E ok                                           end of a complete run
@@ -443,13 +443,14 @@ where
     let s = &b.cloud.stats;
     say!(
         con,
-        "F {} {} {} {} {} {}",
+        "F {} {} {} {} {} {} {}",
         s.detections,
         s.detection_overflow,
         s.points,
         s.point_overflow,
         s.skipped_range_bins,
-        s.detections_without_point
+        s.detections_without_point,
+        s.doppler_rejected
     );
 
     let chirps = (K * TX) as u64;

@@ -21,8 +21,9 @@
 //!   azimuth line is the elements at the lowest elevation, sorted by azimuth; it must be
 //!   uniform when forward–backward averaging is on.
 //! - **Azimuth (§3.1).** For range bins `range_first ..= range_last`: `R = X·Xᴴ/K` over all
-//!   virtual antennas; the azimuth line's block, forward–backward averaged
-//!   `(R + J·R*·J)/2` if enabled, loaded with `δ = γ·tr(R)/D`; Capon power
+//!   virtual antennas; the azimuth line's block (with `Params::spatial_smoothing`, beyond the
+//!   spec: the mean of its two `D − 1`-element sub-line blocks, and `D − 1` for `D` below),
+//!   forward–backward averaged `(R + J·R*·J)/2` if enabled, loaded with `δ = γ·tr(R)/D`; Capon power
 //!   `P = 1/Re(aᴴR⁻¹a)` with `a_m = exp(−j·κ·μ·az_m)`, `κ = π·f_c/F_design`,
 //!   `f_c = f_start + S·(N/fs)/2`, on `μ_i = sin φ_i`, `φ_i` = linspace over the azimuth span.
 //!   A bin whose loaded covariance is not positive definite is a zero row (and counted).
@@ -43,6 +44,17 @@
 //!   `exp(−j·4π·v·slot_m·Tc/λ)` (the covariance becomes `D·R·Dᴴ`); the azimuth bin then
 //!   climbs the compensated azimuth spectrum uphill, at most `tdm_azimuth_search` bins (left
 //!   when `left > here` and `left ≥ right`, else right when `right > here`).
+//! - **Doppler test (beyond the spec, `Params::doppler_test_db` > 0).** The azimuth beam of
+//!   the TDM step (uncompensated covariance, the detection's bin) is windowed and transformed;
+//!   when its strongest power is below `10^(dB/10)` times the median power (the ⌊K/2⌋-th
+//!   smallest, 0-based; a zero median passes) the detection gives no point and is counted.
+//! - **Coherent targets (beyond the spec, `Params::coherent_doppler_bins`).** The TDM step's
+//!   beam Doppler is measured for every detection first; a detection whose beam Doppler lies
+//!   within the window (circular distance, bins) of another detection's in the same run of
+//!   one range bin is *coherent*. Its elevation and Doppler use, instead of the full array,
+//!   the 2 × E rectangle (the elevation row and the line elements below it): the mean over its
+//!   two 2 × (E − 1) sub-rectangles of `(R_s + J·R_s*·J)/2` (`J` the point mirror), loaded;
+//!   steering vectors and the Capon weight on the first sub-rectangle, zero elsewhere.
 //! - **Elevation (§3.3).** The full (compensated) covariance, loaded, no forward–backward
 //!   averaging; Capon power over `ν_j = sin θ_j` with `a_m = exp(−j·κ·(μ·az_m + ν·el_m))`;
 //!   keep interior bins with `P[j−1] < P[j] ≥ P[j+1]`, the strongest `max_peaks` (equal powers:
@@ -168,6 +180,8 @@ pub struct ReferenceOutput {
     pub detection_overflow: usize,
     /// Range bins whose loaded azimuth covariance was not positive definite.
     pub skipped_range_bins: usize,
+    /// Detections whose azimuth beam failed the Doppler test (`Params::doppler_test_db`).
+    pub doppler_rejected: usize,
     /// `δ_b / D` per range bin: the lower bound of the loaded azimuth Capon spectrum (see
     /// [`CfarLevel::LoadingFloor`]); zero outside the processed window.
     pub loading_floor: Vec<f64>,
@@ -202,6 +216,10 @@ struct VirtualArray {
     row: Vec<Vec<usize>>,
     /// Elements on the azimuth line (rows `0..line`).
     line: usize,
+    /// The 2 × E rectangle for coherent targets: `(line rows, elevation-row rows)` at the same
+    /// azimuth positions, in position order; `None` unless the off-line elements are one
+    /// uniform row of ≥ 3 elements, each above a line element.
+    rectangle: Option<(Vec<usize>, Vec<usize>)>,
 }
 
 impl VirtualArray {
@@ -251,11 +269,33 @@ impl VirtualArray {
             row[t][r] = i;
             elements.push(e);
         }
+        let rectangle = Self::rectangle(&elements, line_len);
         Ok(Self {
             elements,
             row,
             line: line_len,
+            rectangle,
         })
+    }
+
+    fn rectangle(elements: &[Element], line: usize) -> Option<(Vec<usize>, Vec<usize>)> {
+        let same = |a: f64, b: f64| (a - b).abs() < SAME_POSITION;
+        let mut upper: Vec<usize> = (line..elements.len()).collect();
+        upper.sort_by(|&a, &b| elements[a].az.total_cmp(&elements[b].az));
+        if upper.len() < 3 {
+            return None;
+        }
+        let (p0, el0) = (elements[upper[0]].az, elements[upper[0]].el);
+        let step = elements[upper[1]].az - p0;
+        let mut below = Vec::with_capacity(upper.len());
+        for (k, &u) in upper.iter().enumerate() {
+            let e = &elements[u];
+            if same(step, 0.0) || !same(e.az - p0, step * k as f64) || !same(e.el, el0) {
+                return None;
+            }
+            below.push((0..line).find(|&l| same(elements[l].az, e.az))?);
+        }
+        Some((below, upper))
     }
 
     fn len(&self) -> usize {
@@ -471,16 +511,103 @@ impl Setup {
         )
     }
 
-    /// Capon solver of the azimuth line's block of `r` (FB averaging if on, loading) and the
-    /// loading `δ` used.
-    fn azimuth_capon(&self, r: &DMatrix<Complex64>, params: &Params) -> Option<(Capon, f64)> {
+    /// Capon solver of the azimuth line's block of `r` (spatial smoothing over the two
+    /// `D − 1`-element sub-lines and FB averaging if on, loading), the loading `δ` used and the
+    /// number of line elements it spans.
+    fn azimuth_capon(
+        &self,
+        r: &DMatrix<Complex64>,
+        params: &Params,
+    ) -> Option<(Capon, f64, usize)> {
         let d = self.array.line;
         let mut block = r.view((0, 0), (d, d)).into_owned();
+        let mut rows = d;
+        if params.spatial_smoothing {
+            rows = d - 1;
+            block = (r.view((0, 0), (rows, rows)) + r.view((1, 1), (rows, rows))).map(|v| v * 0.5);
+        }
         if params.forward_backward {
             block = forward_backward(&block);
         }
         let (loaded, delta) = load(&block, f64::from(params.loading));
-        Capon::new(loaded).map(|c| (c, delta))
+        Capon::new(loaded).map(|c| (c, delta, rows))
+    }
+
+    /// The FBSS covariance of the coherent-target rectangle (module [`dbe_radar::subarray`]'s
+    /// contract): the mean over its two 2 × (E − 1) sub-rectangles `s` of
+    /// `(R_s + J·R_s*·J) / 2`, `J` the point mirror of a sub-rectangle (line position `k` ↔
+    /// elevation-row position `E − 2 − k`), loaded; and the rows of the first sub-rectangle.
+    fn coherent_covariance(
+        &self,
+        r: &DMatrix<Complex64>,
+        params: &Params,
+    ) -> Option<(DMatrix<Complex64>, Vec<usize>)> {
+        let (line, upper) = self.array.rectangle.as_ref()?;
+        let w = line.len() - 1;
+        let rows = |s: usize| -> Vec<usize> {
+            line[s..s + w]
+                .iter()
+                .chain(&upper[s..s + w])
+                .copied()
+                .collect()
+        };
+        let mirror = |k: usize| {
+            if k < w {
+                w + (w - 1 - k)
+            } else {
+                w - 1 - (k - w)
+            }
+        };
+        let n = 2 * w;
+        let mut acc = DMatrix::<Complex64>::zeros(n, n);
+        for s in 0..2 {
+            let idx = rows(s);
+            for k in 0..n {
+                for l in 0..n {
+                    acc[(k, l)] +=
+                        (r[(idx[k], idx[l])] + r[(idx[mirror(k)], idx[mirror(l)])].conj()) * 0.25;
+                }
+            }
+        }
+        Some((load(&acc, f64::from(params.loading)).0, rows(0)))
+    }
+
+    /// Steering vector on the given rows for `(μ, ν)`.
+    fn steering_on(&self, rows: &[usize], mu: f64, nu: f64) -> DVector<Complex64> {
+        DVector::from_iterator(
+            rows.len(),
+            rows.iter().map(|&m| {
+                let e = &self.array.elements[m];
+                Complex64::from_polar(1.0, -self.kappa * (mu * e.az + nu * e.el))
+            }),
+        )
+    }
+
+    /// The Doppler test (`Params::doppler_test_db`, beyond the spec) of a slow-time signal: the
+    /// windowed spectrum's strongest power over its median (the ⌊K/2⌋-th smallest, 0-based)
+    /// is at least the threshold; always true when the threshold is 0 or below.
+    fn passes_doppler_test(&self, y: &[Complex64], params: &Params, margin: &mut Margin) -> bool {
+        if !(params.doppler_test_db > 0.0) {
+            return true;
+        }
+        let mut spectrum: Vec<Complex64> = y
+            .iter()
+            .zip(&self.doppler_window)
+            .map(|(v, w)| v * w)
+            .collect();
+        self.doppler_fft.process(&mut spectrum);
+        let mut power: Vec<f64> = spectrum.iter().map(|v| v.norm_sqr()).collect();
+        let peak = power.iter().copied().fold(0.0, f64::max);
+        power.sort_by(f64::total_cmp);
+        let median = power[power.len() / 2];
+        let ratio = if median > 0.0 {
+            peak / median
+        } else {
+            f64::INFINITY
+        };
+        let min_ratio = 10f64.powf(f64::from(params.doppler_test_db) / 10.0);
+        margin.note(ratio, min_ratio);
+        ratio >= min_ratio
     }
 
     /// Window, FFT and the first strongest bin (signed) of a slow-time signal, with its
@@ -914,10 +1041,10 @@ pub fn process_frame_with(
         let x = &cube[b];
         let r = (x * x.adjoint()).map(|v| v / setup.k as f64);
         match setup.azimuth_capon(&r, params) {
-            Some((capon, delta)) => {
-                loading_floor[b] = delta / setup.array.line as f64;
+            Some((capon, delta, rows)) => {
+                loading_floor[b] = delta / rows as f64;
                 for (p, &mu) in ra_map[b].iter_mut().zip(&setup.az_mu) {
-                    *p = capon.power(&setup.steering(setup.array.line, mu, 0.0));
+                    *p = capon.power(&setup.steering(rows, mu, 0.0));
                 }
             }
             None => skipped_range_bins += 1,
@@ -933,14 +1060,74 @@ pub fn process_frame_with(
     let (mut found, detection_overflow) = detect(&ra_map, floor, params, detection_capacity);
 
     // Stages 3–5.
+    // The Doppler of every detection's azimuth beam (TDM compensation and the coherence test).
+    let need_doppler = params.tdm_compensation
+        || params.coherent_doppler_bins > 0.0
+        || params.doppler_test_db > 0.0;
+    let mut margins = vec![Margin::new(); found.len()];
+    let beams: Vec<Option<BeamDoppler>> = found
+        .iter()
+        .zip(margins.iter_mut())
+        .map(|(det, margin)| {
+            let r = covariances.get(det.range_bin)?.as_ref()?;
+            let x = cube.get(det.range_bin)?;
+            need_doppler
+                .then(|| beam_doppler(&setup, params, r, x, det.azimuth_bin, margin))
+                .flatten()
+        })
+        .collect();
+    let mut doppler_rejected = 0;
+    let bins: Vec<Option<f64>> = beams
+        .iter()
+        .map(|b| match b {
+            Some(BeamDoppler::Bins(d)) => Some(*d),
+            _ => None,
+        })
+        .collect();
     let mut points = Vec::new();
-    for det in found.iter_mut() {
-        let (Some(Some(r)), Some(x)) = (covariances.get(det.range_bin), cube.get(det.range_bin))
-        else {
-            continue;
-        };
-        let mut margin = Margin::new();
-        resolve(&setup, params, det, x, r, &ra_map, &mut margin, &mut points);
+    let mut start = 0;
+    while start < found.len() {
+        let bin = found[start].range_bin;
+        let end = start
+            + found[start..]
+                .iter()
+                .take_while(|d| d.range_bin == bin)
+                .count();
+        for n in start..end {
+            if beams[n] == Some(BeamDoppler::Rejected) {
+                doppler_rejected += 1;
+                continue;
+            }
+            let coherent = coherent(
+                &setup,
+                params,
+                &bins[start..end],
+                n - start,
+                &mut margins[n],
+            );
+            let det = found[n];
+            let (Some(Some(r)), Some(x)) = (covariances.get(bin), cube.get(bin)) else {
+                continue;
+            };
+            let beam = Beam {
+                doppler: bins[n],
+                coherent,
+            };
+            resolve(
+                &setup,
+                params,
+                &det,
+                beam,
+                x,
+                r,
+                &ra_map,
+                &mut margins[n],
+                &mut points,
+            );
+        }
+        start = end;
+    }
+    for (det, margin) in found.iter_mut().zip(margins) {
         det.decision_margin = margin.0;
     }
     Ok(ReferenceOutput {
@@ -948,6 +1135,7 @@ pub fn process_frame_with(
         detections: found,
         detection_overflow,
         skipped_range_bins,
+        doppler_rejected,
         loading_floor,
         points,
         options: *options,
@@ -1022,12 +1210,79 @@ fn beamform(w: &DVector<Complex64>, rot: &[Complex64], x: &DMatrix<Complex64>) -
         .collect()
 }
 
+/// The Doppler (bins plus the log-parabola offset) of the azimuth Capon beam of bin `i` on the
+/// uncompensated covariance; `None` when the azimuth covariance is not positive definite.
+fn beam_doppler(
+    setup: &Setup,
+    params: &Params,
+    r: &DMatrix<Complex64>,
+    x: &DMatrix<Complex64>,
+    i: usize,
+    margin: &mut Margin,
+) -> Option<BeamDoppler> {
+    let (az, _, rows) = setup.azimuth_capon(r, params)?;
+    let w = az.weight(&setup.steering(rows, *setup.az_mu.get(i)?, 0.0));
+    let y = beamform(&w, &vec![Complex64::new(1.0, 0.0); rows], x);
+    if !setup.passes_doppler_test(&y, params, margin) {
+        return Some(BeamDoppler::Rejected);
+    }
+    let (d, offset) = setup.doppler(y, margin);
+    Some(BeamDoppler::Bins(f64::from(d) + offset))
+}
+
+/// The beam Doppler of one detection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum BeamDoppler {
+    /// Bins, with the sub-bin offset.
+    Bins(f64),
+    /// The beam failed the Doppler test: the detection gives no point.
+    Rejected,
+}
+
+/// Whether detection `n` of a range bin's run shares its beam Doppler with another of the run
+/// (circular distance below `coherent_doppler_bins`) and the array has the rectangle.
+fn coherent(
+    setup: &Setup,
+    params: &Params,
+    beams: &[Option<f64>],
+    n: usize,
+    margin: &mut Margin,
+) -> bool {
+    let window = f64::from(params.coherent_doppler_bins);
+    let (Some(Some(mine)), true, true) =
+        (beams.get(n), setup.array.rectangle.is_some(), window > 0.0)
+    else {
+        return false;
+    };
+    let k = setup.k as f64;
+    let mut any = false;
+    for (m, d) in beams.iter().enumerate() {
+        if let (true, Some(d)) = (m != n, d) {
+            let gap = (d - mine).abs() % k;
+            let gap = gap.min(k - gap);
+            margin.note(gap, window);
+            any |= gap < window;
+        }
+    }
+    any
+}
+
+/// What the pre-pass measured for one detection.
+#[derive(Clone, Copy, Debug)]
+struct Beam {
+    /// Doppler of its azimuth beam, bins (`None`: not measured or not positive definite).
+    doppler: Option<f64>,
+    /// Resolved on the coherent-target rectangle.
+    coherent: bool,
+}
+
 /// TDM compensation, elevation sweep and Doppler of one detection; pushes its points.
 #[allow(clippy::too_many_arguments)] // one call site; the stages' inputs, spelled out
 fn resolve(
     setup: &Setup,
     params: &Params,
     det: &RefDetection,
+    beam: Beam,
     x: &DMatrix<Complex64>,
     r: &DMatrix<Complex64>,
     ra: &[Vec<f64>],
@@ -1035,7 +1290,6 @@ fn resolve(
     points: &mut Vec<PointRecord>,
 ) {
     let m = setup.array.len();
-    let line = setup.array.line;
     let naz = setup.az_mu.len();
     let b = det.range_bin;
     let mut i = det.azimuth_bin;
@@ -1061,21 +1315,19 @@ fn resolve(
     let mut r = r.clone();
 
     if params.tdm_compensation {
-        let Some((az, _)) = setup.azimuth_capon(&r, params) else {
+        // The fractional Doppler (strongest bin plus its log-parabola offset), as the core.
+        let Some(d) = beam.doppler else {
             return;
         };
-        let w = az.weight(&setup.steering(line, setup.az_mu[i], 0.0));
-        // The fractional Doppler (strongest bin plus its log-parabola offset), as the core.
-        let (d, offset) = setup.doppler(beamform(&w, &rot, x), margin);
-        let v = (f64::from(d) + offset) * setup.doppler_bin_mps;
+        let v = d * setup.doppler_bin_mps;
         // Slot t fires t·Tc after the loop start: its Doppler phase is 4π·v·t·Tc/λ ahead.
         for (o, e) in rot.iter_mut().zip(&setup.array.elements) {
             *o = Complex64::from_polar(1.0, -setup.slot_phase_per_mps * v * e.slot as f64);
         }
         let dm = DMatrix::from_diagonal(&DVector::from_column_slice(&rot));
         r = &dm * r * dm.adjoint();
-        if let Some((az, _)) = setup.azimuth_capon(&r, params) {
-            let power = |i: usize| az.power(&setup.steering(line, setup.az_mu[i], 0.0));
+        if let Some((az, _, rows)) = setup.azimuth_capon(&r, params) {
+            let power = |i: usize| az.power(&setup.steering(rows, setup.az_mu[i], 0.0));
             let mut here = power(i);
             for _ in 0..params.tdm_azimuth_search {
                 let left = if i > 0 { power(i - 1) } else { 0.0 };
@@ -1103,15 +1355,24 @@ fn resolve(
         }
     }
 
-    // Stage 3: elevation sweep on the full array, no forward–backward averaging.
-    let Some(el) = Capon::new(load(&r, f64::from(params.loading)).0) else {
+    // Stage 3: elevation sweep on the full array, no forward–backward averaging; coherent
+    // targets on the rectangle's FBSS covariance.
+    let all: Vec<usize> = (0..m).collect();
+    let (cov, rows) = match beam.coherent {
+        true => match setup.coherent_covariance(&r, params) {
+            Some(c) => c,
+            None => return,
+        },
+        false => (load(&r, f64::from(params.loading)).0, all),
+    };
+    let Some(el) = Capon::new(cov) else {
         return;
     };
     let mu = setup.az_mu[i];
     let spectrum: Vec<f64> = setup
         .el_nu
         .iter()
-        .map(|&nu| el.power(&setup.steering(m, mu, nu)))
+        .map(|&nu| el.power(&setup.steering_on(&rows, mu, nu)))
         .collect();
     let peaks = elevation_peaks(&spectrum, &params.elevation, margin);
 
@@ -1144,7 +1405,11 @@ fn resolve(
         if cos2 <= 0.0 {
             continue;
         }
-        let w = el.weight(&setup.steering(m, mu, nu));
+        let w_rows = el.weight(&setup.steering_on(&rows, mu, nu));
+        let mut w = DVector::<Complex64>::zeros(m);
+        for (&row, v) in rows.iter().zip(w_rows.iter()) {
+            w[row] = *v;
+        }
         let (d, d_frac) = setup.doppler(beamform(&w, &rot, x), margin);
         let doppler_bins = if params.subgrid {
             f64::from(d) + d_frac

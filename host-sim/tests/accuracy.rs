@@ -103,28 +103,69 @@ fn without_tdm_compensation_the_moving_sensor_loses_elevation_accuracy() -> Test
     Ok(())
 }
 
-/// The coherent-pair limitation (README "Known limitations", issue 10 §2), pinned so that it
-/// cannot change unnoticed. `two_targets` puts two equal static reflectors in one range bin:
-/// seen by a static sensor their snapshots are identical up to noise, and seen by a sensor
-/// moving straight ahead they share one radial velocity, so in both cases they are coherent.
-/// Forward–backward averaging keeps them apart in azimuth (the azimuth RMSE of the matched
-/// points stays within the static goal), but the 12-element elevation Capon has no such
-/// averaging and cancels them: about a third of the targets get a point within 0.6 m. When
-/// the chain learns to resolve coherent pairs this test fails: replace it by the ≥ 90 % goal.
+/// Coherent targets (issue 10 §2): `two_targets` puts two equal static reflectors in one
+/// range bin; seen by a static sensor their snapshots are identical up to noise, and seen by a
+/// sensor moving straight ahead they share one radial velocity, so in both cases they are
+/// coherent. Both are detected, and both get their elevation (the static scene's goal, ≤ 1°),
+/// because detections of one range bin with one Doppler are resolved on the forward–backward
+/// averaged 2 × 4 sub-array (`dbe_radar::subarray`).
 #[test]
-fn coherent_pairs_lose_elevation_as_documented() -> TestResult {
+fn coherent_pairs_in_scenes_get_their_elevations() -> TestResult {
     let mut moving = scene("two_targets")?;
     moving.sensor.velocity = Some([1.2, 0.0, 0.0]);
     moving.name = "two_targets, moving".into();
     for s in [scene("two_targets")?, moving] {
         let a = run(&s, Params::defaults(128))?;
-        assert!(a.points_per_frame >= 2.0, "{}: both detected {a:?}", s.name);
+        assert!(a.detection_rate() >= 0.95, "{}: {a:?}", s.name);
         assert!(a.azimuth_rmse_deg <= 0.5, "{}: azimuth {a:?}", s.name);
-        assert!(
-            a.detection_rate() < 0.5,
-            "{}: the coherent pair is resolved now ({a:?}); make the goal the test",
-            s.name
-        );
+        assert!(a.elevation_rmse_deg <= 1.0, "{}: elevation {a:?}", s.name);
+        // The paper's chain (full array, no averaging) is what the sub-array fixes.
+        let paper = Params {
+            coherent_doppler_bins: 0.0,
+            ..Params::defaults(128)
+        };
+        let b = run(&s, paper)?;
+        assert!(b.detection_rate() < 0.5, "{}: full array {b:?}", s.name);
+    }
+    Ok(())
+}
+
+/// Issue 10 §2 on the evaluation's own trial generator: two equal coherent (static) targets at
+/// 20 dB (random centre in ±25°, common elevation in ±10°, random phases), 40 fixed trials per
+/// separation. Resolved points get their elevations: RMSE ≤ 1° at every separation from 8°
+/// (the full-array chain: 7–9°). Measured resolution: 75 % at 8°, 90 % at 12°, 95 % at 20°, so
+/// the goal (≥ 90 %) holds from 12° and is missed at 8°: forward–backward averaging of the
+/// 8-element line leaves a band of phase differences where the pair merges into one point or
+/// cancels on the range–azimuth map (`Params::spatial_smoothing` trades that for aperture).
+/// 8° is held at ≥ 60 % so that a regression shows.
+#[test]
+fn coherent_pairs_are_resolved_with_their_elevations() -> TestResult {
+    use host_sim::eval::scenarios::{resolve, two_targets, Context, Pair};
+    use rand::{rngs::StdRng, SeedableRng};
+    const TRIALS: u64 = 40;
+    let ctx = Context::coloradar(8.0)?;
+    let mut runner = CoreRunner::new(&ctx.sensor, Params::defaults(128))?;
+    for (sep, goal) in [(8.0, 0.6), (12.0, 0.9), (20.0, 0.9)] {
+        let (mut resolved, mut sq, mut n) = (0u32, 0.0, 0u32);
+        for i in 0..TRIALS {
+            let targets = two_targets(&ctx, sep, Pair::Coherent, 20.0, 7000 + i);
+            let mut rng = StdRng::seed_from_u64(9000 + i);
+            let scat = targets.map(|t| t.scatterer(ctx.t_mid_s));
+            let frame = host_sim::sim::try_render_frame(&ctx.sensor, &scat, 8.0, &mut rng)?;
+            let out = runner.process(&frame)?;
+            if let Some(el) = resolve(&out.points, &targets, ctx.range_bin_m) {
+                resolved += 1;
+                for e in el {
+                    sq += e * e;
+                    n += 1;
+                }
+            }
+        }
+        let rate = f64::from(resolved) / TRIALS as f64;
+        let rmse = (sq / f64::from(n.max(1))).sqrt();
+        println!("{sep}°: resolved {rate:.2}, elevation RMSE {rmse:.2}°");
+        assert!(rate >= goal, "{sep}°: resolved in {rate:.2} of the trials");
+        assert!(rmse <= 1.0, "{sep}°: elevation RMSE {rmse:.2}°");
     }
     Ok(())
 }

@@ -197,6 +197,7 @@ pub fn parse_output(text: &str) -> Result<FirmwareRun, FirmwareError> {
                     point_overflow: field(&t, 4, line, "point overflow")?,
                     skipped_range_bins: field(&t, 5, line, "skipped range bins")?,
                     detections_without_point: field(&t, 6, line, "detections without point")?,
+                    doppler_rejected: field(&t, 7, line, "Doppler-rejected detections")?,
                 };
                 stats = true;
             }

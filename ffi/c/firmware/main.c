@@ -88,8 +88,9 @@ int main(void) {
     say("V %.9g %.9g %.9g %u %u %s\n", (double)ego.velocity[0], (double)ego.velocity[1],
         (double)ego.velocity[2], ego.inliers, ego.points,
         ego.status < 4 ? ego_status[ego.status] : "?");
-    say("F %u %u %u %u %u %u\n", st.detections, st.detection_overflow, st.points,
-        st.point_overflow, st.skipped_range_bins, st.detections_without_point);
+    say("F %u %u %u %u %u %u %u\n", st.detections, st.detection_overflow, st.points,
+        st.point_overflow, st.skipped_range_bins, st.detections_without_point,
+        st.doppler_rejected);
     say("E ok\n");
     return 0;
 }

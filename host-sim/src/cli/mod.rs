@@ -30,14 +30,41 @@ pub struct ParamArgs {
     /// instead of grid values; bin indices unchanged).
     #[arg(long)]
     pub subgrid: bool,
+    /// Resolve every detection on the full array, also coherent ones (two targets of one range
+    /// bin with one Doppler), as the paper's chain does; by default those use the
+    /// forward–backward averaged 2 × 4 sub-array and get their own elevations.
+    #[arg(long)]
+    pub no_coherent: bool,
+    /// Spatially smooth the azimuth covariance over two 7-element sub-lines: coherent pairs
+    /// 12° or more apart are always resolved, at the cost of one element of azimuth aperture.
+    #[arg(long)]
+    pub spatial_smoothing: bool,
+    /// The paper's chain: no TDM-MIMO compensation, no coherent sub-array, no Doppler test
+    /// (the other options still apply on top).
+    #[arg(long)]
+    pub paper: bool,
+    /// Turn the Doppler test off: keep detections whose azimuth beam has no slow-time peak
+    /// 12 dB over its Doppler spectrum's median.
+    #[arg(long)]
+    pub no_doppler_test: bool,
 }
 
 impl ParamArgs {
     /// The core's parameters for `sensor`'s sizes with these overrides.
     pub fn to_params(&self, sensor: &SensorConfig) -> Result<dbe_radar::Params> {
-        let mut p = dbe_radar::Params::defaults(sensor.samples);
-        p.tdm_compensation = !self.no_tdm_compensation;
+        let mut p = match self.paper {
+            true => dbe_radar::Params::paper(sensor.samples),
+            false => dbe_radar::Params::defaults(sensor.samples),
+        };
+        p.tdm_compensation = !self.no_tdm_compensation && !self.paper;
+        if self.no_doppler_test {
+            p.doppler_test_db = 0.0;
+        }
         p.subgrid = self.subgrid;
+        if self.no_coherent {
+            p.coherent_doppler_bins = 0.0;
+        }
+        p.spatial_smoothing = self.spatial_smoothing;
         if let Some(t) = self.cfar_threshold_db {
             // Below −10 dB every local maximum is a detection; above 60 dB nothing a 16-bit
             // ADC can record passes.

@@ -230,6 +230,9 @@ fn run_record(
         "parameters": {
             "tdm_compensation": params.tdm_compensation,
             "subgrid": params.subgrid,
+            "coherent_doppler_bins": params.coherent_doppler_bins,
+            "spatial_smoothing": params.spatial_smoothing,
+            "doppler_test_db": params.doppler_test_db,
             "cfar_threshold_db": params.cfar.threshold_db,
             "loading": params.loading,
             "all": format!("{params:?}"),

@@ -244,6 +244,10 @@ pub enum SweepValue {
     CfarQuantile(f32),
     /// Elevation peaks: at most `.0` per detection, within `.1` dB of the strongest.
     ElevationPeaks(u8, f32),
+    /// The Doppler test's threshold, dB (0: off).
+    DopplerTest(f32),
+    /// The coherent-target Doppler window, bins (0: off).
+    Coherent(f32),
 }
 
 impl SweepValue {
@@ -254,6 +258,8 @@ impl SweepValue {
             SweepValue::CfarThreshold(_) => "CFAR α (dB)",
             SweepValue::CfarQuantile(_) => "CFAR quantile q",
             SweepValue::ElevationPeaks(..) => "elevation peaks (max, range dB)",
+            SweepValue::DopplerTest(_) => "Doppler test (dB)",
+            SweepValue::Coherent(_) => "coherent window (bins)",
         }
     }
 
@@ -264,6 +270,8 @@ impl SweepValue {
             SweepValue::CfarThreshold(a) => format!("{a}"),
             SweepValue::CfarQuantile(q) => format!("{q}"),
             SweepValue::ElevationPeaks(n, r) => format!("{n}, {r}"),
+            SweepValue::DopplerTest(t) => format!("{t}"),
+            SweepValue::Coherent(c) => format!("{c}"),
         }
     }
 
@@ -279,6 +287,8 @@ impl SweepValue {
                 params.elevation.max_peaks = n;
                 params.elevation.peak_range_db = r;
             }
+            SweepValue::DopplerTest(t) => params.doppler_test_db = t,
+            SweepValue::Coherent(c) => params.coherent_doppler_bins = c,
         }
         params
     }
@@ -297,7 +307,7 @@ pub fn defaults_sweep() -> Vec<SweepValue> {
     for g in [1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1] {
         v.push(SweepValue::Loading(g));
     }
-    for a in [3.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0] {
+    for a in [2.0, 3.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0] {
         v.push(SweepValue::CfarThreshold(a));
     }
     for q in [0.25, 0.5, 0.625, 0.75, 0.875] {
@@ -305,6 +315,12 @@ pub fn defaults_sweep() -> Vec<SweepValue> {
     }
     for (n, r) in [(1, 6.0), (2, 3.0), (2, 6.0), (2, 10.0), (3, 6.0), (4, 10.0)] {
         v.push(SweepValue::ElevationPeaks(n, r));
+    }
+    for t in [0.0, 6.0, 12.0, 18.0] {
+        v.push(SweepValue::DopplerTest(t));
+    }
+    for c in [0.0, 1.5] {
+        v.push(SweepValue::Coherent(c));
     }
     v
 }
