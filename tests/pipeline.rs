@@ -286,7 +286,8 @@ fn subgrid_refinement_beats_grid_quantisation() {
                 ..Params::defaults(p::SAMPLES)
             };
             let r = run(&[t], 20.0, 100 + seed, params);
-            let pt = nearest(&r, &t).expect("a point");
+            let pt = nearest(&r, &t)
+                .unwrap_or_else(|| panic!("seed {seed}: no point, {:?}", r.cloud.stats));
             // Truth at mid-frame: the estimates average over the K loops.
             let half = p::LOOPS as f64 * 3.0 * Waveform::COLORADAR.chirp_period_s() / 2.0;
             let mid = Target {

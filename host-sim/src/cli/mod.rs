@@ -43,10 +43,11 @@ pub struct ParamArgs {
     /// (the other options still apply on top).
     #[arg(long)]
     pub paper: bool,
-    /// Turn the Doppler test off: keep detections whose azimuth beam has no slow-time peak
-    /// 12 dB over its Doppler spectrum's median.
+    /// Turn the Doppler test on: drop detections whose azimuth Capon beam has no slow-time
+    /// peak 12 dB over its Doppler spectrum's median (off by default: it can drop strong fast
+    /// targets, see `Params::doppler_test_db`).
     #[arg(long)]
-    pub no_doppler_test: bool,
+    pub doppler_test: bool,
 }
 
 impl ParamArgs {
@@ -57,8 +58,8 @@ impl ParamArgs {
             false => dbe_radar::Params::defaults(sensor.samples),
         };
         p.tdm_compensation = !self.no_tdm_compensation && !self.paper;
-        if self.no_doppler_test {
-            p.doppler_test_db = 0.0;
+        if self.doppler_test {
+            p.doppler_test_db = 12.0;
         }
         p.subgrid = self.subgrid;
         if self.no_coherent {
