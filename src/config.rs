@@ -162,6 +162,16 @@ impl AntennaGeometry<3, 4> {
     };
 }
 
+impl AntennaGeometry<2, 4> {
+    /// A 2 TX × 4 RX board with both TX on the RX line, 2 λ apart (AWR1642BOOST, IWR1443BOOST
+    /// class): an 8-element uniform azimuth line and no elevation row.
+    pub const AWR1642: Self = Self {
+        tx: [(0.0, 0.0), (4.0, 0.0)],
+        rx: [(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (3.0, 0.0)],
+        f_design_hz: 76.8e9,
+    };
+}
+
 /// Where each virtual antenna went: the cube's row order, derived from an [`AntennaGeometry`].
 ///
 /// Rows `0..AZ` are the azimuth line (lowest elevation), sorted by azimuth position; rows

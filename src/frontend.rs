@@ -59,13 +59,17 @@ const ZERO: Complex32 = Complex32::new(0.0, 0.0);
 /// let _ = Frontend::<128, 128, 3, 4, 10, 8>::new(w, g, WindowKind::Blackman);
 /// ```
 ///
-/// nor an azimuth line as long as the whole array (no elevation row):
+/// nor an azimuth line longer than the array:
 ///
 /// ```compile_fail,E0080
 /// use dbe_radar::{window::WindowKind, AntennaGeometry, Frontend, Waveform};
 /// let (w, g) = (Waveform::COLORADAR, AntennaGeometry::COLORADAR);
-/// let _ = Frontend::<128, 128, 3, 4, 12, 12>::new(w, g, WindowKind::Blackman);
+/// let _ = Frontend::<128, 128, 3, 4, 12, 13>::new(w, g, WindowKind::Blackman);
 /// ```
+///
+/// An azimuth line as long as the whole array (`AZ = M`: 2 TX × 4 RX on a line, as on
+/// AWR1642/IWR1443-class boards) is an array without an elevation row: both chains then give
+/// azimuth-only points (ν = 0, [`Frontend::MEASURES_ELEVATION`] false).
 #[derive(Clone, Debug)]
 pub struct Frontend<
     const N: usize,
@@ -95,6 +99,11 @@ impl<
         const AZ: usize,
     > Frontend<N, K, TX, RX, M, AZ>
 {
+    /// Whether the array has an elevation row (`AZ < M`). Without one (`AZ = M`, e.g. 2 TX ×
+    /// 4 RX on a line) every point of either chain has elevation ν = 0 (`z = 0`): the array
+    /// cannot measure it.
+    pub const MEASURES_ELEVATION: bool = AZ < M;
+
     /// Validate the waveform and geometry and precompute the range window.
     pub fn new(
         waveform: Waveform,
@@ -135,7 +144,7 @@ impl<
     ) -> Result<(), ConfigError> {
         const {
             assert!(M == TX * RX, "M must equal TX · RX");
-            assert!(AZ >= 2 && AZ < M, "the azimuth line needs 2..M elements");
+            assert!(AZ >= 2 && AZ <= M, "the azimuth line needs 2..=M elements");
             assert!(N.is_power_of_two() && K.is_power_of_two());
             assert!(N <= u16::MAX as usize && K <= i16::MAX as usize);
         };

@@ -285,7 +285,9 @@ impl<const N: usize, const K: usize, const M: usize, const NAZ: usize, const DET
 ///
 /// Const generics (the crate's one order): `N` samples per chirp (= range bins), `K` loops
 /// per frame, `TX`, `RX`, `M = TX·RX` virtual antennas of which `AZ` form the azimuth line,
-/// `NAZ` azimuth and `NEL` elevation grid bins, `DET` detections per frame.
+/// `NAZ` azimuth and `NEL` elevation grid bins, `DET` detections per frame. With `AZ = M`
+/// (no elevation row) the elevation sweep is skipped and every point has ν = 0, labelled with
+/// the elevation bin nearest to it.
 #[derive(Clone, Debug)]
 pub struct Dbe<
     const N: usize,
@@ -676,11 +678,17 @@ impl<
         }
 
         // Elevation sweep on the full array without FB averaging, or for coherent targets
-        // on the FB-averaged sub-array (steering vectors and weights restricted to it).
+        // on the FB-averaged sub-array (steering vectors and weights restricted to it). An
+        // array without an elevation row is its azimuth line, whose FB averaging (as on the
+        // range–azimuth map) keeps the Doppler weight of one of two coherent targets from
+        // cancelling it.
         let sub = coherent.then_some(&self.sub);
         match sub {
             Some(sub) => r = sub.covariance(&r, self.params.loading),
             None => {
+                if AZ == M && self.params.forward_backward {
+                    forward_backward(&mut r);
+                }
                 let _ = load_diagonal(&mut r, self.params.loading);
             }
         }
@@ -692,7 +700,18 @@ impl<
             sub.map_or(a, |sub| sub.restrict(&a))
         };
         let mut s = [0.0f32; NEL];
-        let peaks = elevation::sweep(&el, steer, &self.params.elevation, &mut s);
+        let peaks = if AZ < M {
+            elevation::sweep(&el, steer, &self.params.elevation, &mut s)
+        } else {
+            // No elevation row: one direction, on the line (ν = 0, the bin nearest to it).
+            let j = usize::from(elevation::nearest_bin::<NEL>(
+                0.0,
+                self.params.elevation_span_deg,
+            ));
+            let mut one: elevation::Peaks = Default::default();
+            one[0] = Some((j, el.power(&steer(j))));
+            one
+        };
 
         // Capon-weighted Doppler and the point per elevation peak.
         let subgrid = self.params.subgrid;
@@ -706,7 +725,9 @@ impl<
         };
         let snr_db = ratio_db(det.power, det.level);
         for &(j, power) in peaks.iter().flatten() {
-            let nu = if subgrid {
+            let nu = if AZ == M {
+                0.0
+            } else if subgrid {
                 let frac = parabolic_offset(s[j - 1], s[j], s[j + 1]);
                 sine_at(self.params.elevation_span_deg, NEL, j as f32 + frac)
             } else {

@@ -154,3 +154,41 @@ preset! {
         waveform crate::Waveform::IWR6843_FIXTURE,
         geometry crate::AntennaGeometry::IWR6843_FIXTURE,
 }
+
+preset! {
+    /// A 2 TX × 4 RX radar on one line (AWR1642/IWR1443 class, [`crate::AntennaGeometry::AWR1642`])
+    /// with ColoRadar's waveform and frame size: an 8-element azimuth line, no elevation row,
+    /// so both chains give azimuth-only points (ν = 0).
+    awr1642: samples 128, loops 128, tx 2, rx 4, azimuth 8, azimuth_bins 188,
+        elevation_bins 101, detections 128, points 256,
+        waveform crate::Waveform::COLORADAR,
+        geometry crate::AntennaGeometry::AWR1642,
+}
+
+/// Call macro `$m` with every frame size the host compiles the core for: `(samples, loops,
+/// TX)` for 64–512 samples × 16–256 loops (powers of two) × 3 or 2 TX, all with 4 RX and an
+/// 8-element azimuth line (3 TX: AWR1843/IWR6843 class, 4 elevation elements; 2 TX: AWR1642 /
+/// IWR1443 class, no elevation row). Only types are named, so firmware that does not call
+/// it compiles none of them.
+///
+/// ```
+/// macro_rules! count {
+///     ($(($n:literal, $k:literal, $tx:literal))*) => { [$(($n, $k, $tx)),*].len() };
+/// }
+/// assert_eq!(dbe_radar::ti_frame_sizes!(count), 40);
+/// ```
+#[macro_export]
+macro_rules! ti_frame_sizes {
+    ($m:ident) => {
+        $m! {
+            (64, 16, 3) (64, 32, 3) (64, 64, 3) (64, 128, 3) (64, 256, 3)
+            (128, 16, 3) (128, 32, 3) (128, 64, 3) (128, 128, 3) (128, 256, 3)
+            (256, 16, 3) (256, 32, 3) (256, 64, 3) (256, 128, 3) (256, 256, 3)
+            (512, 16, 3) (512, 32, 3) (512, 64, 3) (512, 128, 3) (512, 256, 3)
+            (64, 16, 2) (64, 32, 2) (64, 64, 2) (64, 128, 2) (64, 256, 2)
+            (128, 16, 2) (128, 32, 2) (128, 64, 2) (128, 128, 2) (128, 256, 2)
+            (256, 16, 2) (256, 32, 2) (256, 64, 2) (256, 128, 2) (256, 256, 2)
+            (512, 16, 2) (512, 32, 2) (512, 64, 2) (512, 128, 2) (512, 256, 2)
+        }
+    };
+}

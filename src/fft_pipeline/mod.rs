@@ -300,7 +300,8 @@ impl<
     /// `frontend`.
     ///
     /// At least one elevation-row element must share its azimuth position with an
-    /// azimuth-line element, else `ConfigError::OutOfRange(Param::AntennaPosition)`.
+    /// azimuth-line element, else `ConfigError::OutOfRange(Param::AntennaPosition)`; an array
+    /// without an elevation row (`AZ = M`) gives azimuth-only points (ν = 0).
     pub fn new(
         frontend: &Frontend<N, K, TX, RX, M, AZ>,
         params: FftParams,
@@ -358,9 +359,10 @@ impl<
                 pair_count += 1;
             }
         }
-        // ArrayLayout puts the line at the lowest elevation and the rest on one row above it.
-        let del = layout.el[AZ];
-        if pair_count == 0 || !(del > 0.0) {
+        // ArrayLayout puts the line at the lowest elevation and the rest on one row above it;
+        // an array without that row (`AZ = M`) gives azimuth-only points (ν = 0).
+        let del = layout.el.get(AZ).copied().unwrap_or(0.0);
+        if AZ < M && (pair_count == 0 || !(del > 0.0)) {
             return Err(ConfigError::OutOfRange(Param::AntennaPosition));
         }
         let fc = frontend.waveform().center_frequency_hz(N);
@@ -568,8 +570,11 @@ impl<
         }
 
         // Elevation: phase of the pair products (line element × conj(elevation element)).
-        let Some(nu) = elevation::phase_difference(&x, self.elevation_pairs(), self.kappa_del)
-        else {
+        let nu = match AZ < M {
+            true => elevation::phase_difference(&x, self.elevation_pairs(), self.kappa_del),
+            false => Some(0.0),
+        };
+        let Some(nu) = nu else {
             return;
         };
         let Some(point) = Point::at(range_bins * self.range_bin_m, mu, nu) else {
