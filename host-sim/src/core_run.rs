@@ -17,70 +17,130 @@ use crate::cloud::PointRecord;
 use crate::frame::AdcFrame;
 use crate::sensor::SensorConfig;
 
-/// A compiled array-size preset of the core.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Preset {
-    /// `dbe_radar::presets::coloradar`: 128 samples, 128 loops, 3 TX × 4 RX.
-    ColoRadar,
-    /// `dbe_radar::presets::iwr6843`: 256 samples, 64 loops, 3 TX × 4 RX.
-    Iwr6843,
+/// A compiled array size of the core: `(samples, loops, TX, RX)` with the chains' common
+/// grids (188 azimuth, 101 elevation bins), 128 detections and 256 points per frame, and an
+/// 8-element azimuth line. Every size of [`dbe_radar::ti_frame_sizes!`] is compiled: 64–512
+/// samples × 16–256 loops (powers of two) × 3 TX (AWR1843 / IWR6843 class: line + elevation
+/// row) or 2 TX (AWR1642 / IWR1443 class: a line, azimuth-only points), all with 4 RX. Two of
+/// them carry the names of their firmware images: [`Preset::COLORADAR`] and [`Preset::IWR6843`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Preset {
+    samples: u16,
+    loops: u16,
+    tx: u8,
+    rx: u8,
 }
 
 /// Sizes of a preset: `(samples, loops, tx, rx)`.
 type Sizes = (usize, usize, usize, usize);
 
-impl Preset {
-    /// Every compiled preset.
-    pub const ALL: [Preset; 2] = [Preset::ColoRadar, Preset::Iwr6843];
+/// The chains' grids and capacities, the same for every host preset (those of
+/// `dbe_radar::presets::coloradar`).
+mod grid {
+    pub use dbe_radar::presets::coloradar::{
+        AZIMUTH as LINE, AZIMUTH_BINS, DETECTIONS, ELEVATION_BINS, POINTS, RX,
+    };
+}
 
-    /// The preset's name.
-    pub const fn name(self) -> &'static str {
+macro_rules! preset_list {
+    ($(($n:literal, $k:literal, $tx:literal))*) => {
+        [$(Preset::of($n, $k, $tx)),*]
+    };
+}
+
+impl Preset {
+    /// `dbe_radar::presets::coloradar`: 128 samples, 128 loops, 3 TX × 4 RX.
+    pub const COLORADAR: Preset = Preset::of(128, 128, 3);
+    /// `dbe_radar::presets::iwr6843`: 256 samples, 64 loops, 3 TX × 4 RX.
+    pub const IWR6843: Preset = Preset::of(256, 64, 3);
+    /// The presets that have firmware images (`firmware/`, the budget).
+    pub const FIRMWARE: [Preset; 2] = [Preset::COLORADAR, Preset::IWR6843];
+    /// Every compiled preset.
+    pub const ALL: [Preset; 40] = dbe_radar::ti_frame_sizes!(preset_list);
+
+    /// The preset of `samples × loops`, `tx` TX × 4 RX (sizes up to 65,535 and 255: the
+    /// compiled ones are far smaller).
+    const fn of(samples: usize, loops: usize, tx: usize) -> Self {
+        Preset {
+            samples: samples as u16,
+            loops: loops as u16,
+            tx: tx as u8,
+            rx: grid::RX as u8,
+        }
+    }
+
+    /// The preset's name: `coloradar`, `iwr6843`, else `ti-<samples>x<loops>-<tx>tx`.
+    pub fn name(self) -> String {
         match self {
-            Preset::ColoRadar => "coloradar",
-            Preset::Iwr6843 => "iwr6843",
+            Preset::COLORADAR => "coloradar".into(),
+            Preset::IWR6843 => "iwr6843".into(),
+            p => format!("ti-{}x{}-{}tx", p.samples, p.loops, p.tx),
         }
     }
 
     /// `(samples, loops, tx, rx)` of the preset.
     pub const fn sizes(self) -> Sizes {
-        use dbe_radar::presets::{coloradar as c, iwr6843 as i};
-        match self {
-            Preset::ColoRadar => (c::SAMPLES, c::LOOPS, c::TX, c::RX),
-            Preset::Iwr6843 => (i::SAMPLES, i::LOOPS, i::TX, i::RX),
-        }
+        (
+            self.samples as usize,
+            self.loops as usize,
+            self.tx as usize,
+            self.rx as usize,
+        )
+    }
+
+    /// Whether the preset's array has an elevation row (3 TX); 2-TX arrays are a line and
+    /// their points have elevation 0 (`dbe_radar::Frontend::MEASURES_ELEVATION`).
+    pub const fn measures_elevation(self) -> bool {
+        self.tx as usize * self.rx as usize > grid::LINE
     }
 
     /// Azimuth grid bins of the preset.
     pub const fn azimuth_bins(self) -> usize {
-        match self {
-            Preset::ColoRadar => dbe_radar::presets::coloradar::AZIMUTH_BINS,
-            Preset::Iwr6843 => dbe_radar::presets::iwr6843::AZIMUTH_BINS,
-        }
+        grid::AZIMUTH_BINS
     }
 
     /// Elevation grid bins of the preset.
     pub const fn elevation_bins(self) -> usize {
-        match self {
-            Preset::ColoRadar => dbe_radar::presets::coloradar::ELEVATION_BINS,
-            Preset::Iwr6843 => dbe_radar::presets::iwr6843::ELEVATION_BINS,
-        }
+        grid::ELEVATION_BINS
     }
 
     /// Detection capacity per frame of the preset.
     pub const fn detection_capacity(self) -> usize {
-        match self {
-            Preset::ColoRadar => dbe_radar::presets::coloradar::DETECTIONS,
-            Preset::Iwr6843 => dbe_radar::presets::iwr6843::DETECTIONS,
-        }
+        grid::DETECTIONS
     }
 
-    /// The preset whose sizes (samples, loops, TX, RX) match `sensor`.
+    /// The preset whose sizes (samples, loops, TX, RX) match `sensor`; else an error naming
+    /// the nearest ones.
     pub fn for_sensor(sensor: &SensorConfig) -> Result<Preset, CoreRunError> {
         let found = (sensor.samples, sensor.loops, sensor.num_tx, sensor.num_rx);
         Self::ALL
             .into_iter()
             .find(|p| p.sizes() == found)
-            .ok_or(CoreRunError::NoPreset { found })
+            .ok_or_else(|| CoreRunError::NoPreset {
+                found,
+                nearest: Self::nearest(found),
+            })
+    }
+
+    /// The presets closest to `sizes`: fewest octaves apart in samples plus loops, with TX
+    /// and RX mismatches counted as an octave each; every preset at that distance.
+    pub fn nearest(sizes: Sizes) -> Vec<Preset> {
+        let octaves = |a: usize, b: usize| {
+            let (a, b) = (a.max(1) as f64, b.max(1) as f64);
+            (a.log2() - b.log2()).abs()
+        };
+        let distance = |p: &Preset| {
+            let (n, k, tx, rx) = p.sizes();
+            octaves(n, sizes.0)
+                + octaves(k, sizes.1)
+                + f64::from(u8::from(tx != sizes.2))
+                + f64::from(u8::from(rx != sizes.3))
+        };
+        let best = Self::ALL.iter().map(distance).fold(f64::INFINITY, f64::min);
+        Self::ALL
+            .into_iter()
+            .filter(|p| distance(p) <= best + 1e-9)
+            .collect()
     }
 }
 
@@ -95,8 +155,8 @@ impl fmt::Display for Preset {
     }
 }
 
-fn list_presets() -> String {
-    Preset::ALL
+fn list(presets: &[Preset]) -> String {
+    presets
         .iter()
         .map(ToString::to_string)
         .collect::<Vec<_>>()
@@ -108,14 +168,18 @@ fn list_presets() -> String {
 pub enum CoreRunError {
     /// No compiled preset has the sensor's sizes.
     #[error(
-        "no compiled preset for {} samples, {} loops, {} TX × {} RX; compiled presets: {}",
-        found.0, found.1, found.2, found.3, list_presets()
+        "no compiled preset for {} samples, {} loops, {} TX × {} RX; nearest: {}. Presets \
+         cover 64–512 samples × 16–256 loops (powers of two), 2 or 3 TX × 4 RX: configure the \
+         radar to one of them (TI: profileCfg numAdcSamples, frameCfg numLoops)",
+        found.0, found.1, found.2, found.3, list(nearest)
     )]
     NoPreset {
         /// The sensor's `(samples, loops, tx, rx)`.
         found: Sizes,
+        /// The nearest compiled presets ([`Preset::nearest`]).
+        nearest: Vec<Preset>,
     },
-    /// The sensor's antenna lists do not fit the preset's 3 TX × 4 RX.
+    /// The sensor's antenna lists do not fit the preset's TX × RX.
     #[error("sensor has {tx} TX and {rx} RX positions, the {preset} preset needs {} and {}", preset.sizes().2, preset.sizes().3)]
     Geometry {
         /// The preset.
@@ -374,11 +438,7 @@ impl<
         }))
     }
 
-    fn process(&mut self, frame: &AdcFrame) -> Result<CoreOutput, CoreRunError> {
-        self.process_timed(frame).map(|(out, _)| out)
-    }
-
-    /// [`Self::process`], timing each stage on the wall clock.
+    /// Process `frame`, timing each stage on the wall clock.
     fn process_timed(
         &mut self,
         frame: &AdcFrame,
@@ -427,45 +487,82 @@ impl<
     }
 }
 
-/// The engine of preset module `$p` running chain type `$chain` of that module.
-macro_rules! preset_engine {
-    ($p:ident, $chain:ident) => {
-        Engine<
-            { dbe_radar::presets::$p::SAMPLES },
-            { dbe_radar::presets::$p::LOOPS },
-            { dbe_radar::presets::$p::TX },
-            { dbe_radar::presets::$p::RX },
-            { dbe_radar::presets::$p::VIRTUAL },
-            { dbe_radar::presets::$p::AZIMUTH },
-            { dbe_radar::presets::$p::POINTS },
-            dbe_radar::presets::$p::$chain,
-        >
-    };
+/// One preset's engine behind a pointer: what [`CoreRunner`] needs of it.
+trait Run: Send {
+    fn params(&self) -> &Params;
+    fn process_timed(&mut self, frame: &AdcFrame)
+        -> Result<(CoreOutput, StageTimes), CoreRunError>;
 }
 
-enum Engines {
-    ColoRadar(Box<preset_engine!(coloradar, Dbe)>),
-    ColoRadarFft(Box<preset_engine!(coloradar, FftChain)>),
-    Iwr6843(Box<preset_engine!(iwr6843, Dbe)>),
-    Iwr6843Fft(Box<preset_engine!(iwr6843, FftChain)>),
+impl<
+        const N: usize,
+        const K: usize,
+        const TX: usize,
+        const RX: usize,
+        const M: usize,
+        const AZ: usize,
+        const P: usize,
+        C: HostChain<N, K, TX, RX, M, AZ> + Send,
+    > Run for Engine<N, K, TX, RX, M, AZ, P, C>
+where
+    C::Workspace: Send,
+{
+    fn params(&self) -> &Params {
+        &self.params
+    }
+
+    fn process_timed(
+        &mut self,
+        frame: &AdcFrame,
+    ) -> Result<(CoreOutput, StageTimes), CoreRunError> {
+        Engine::process_timed(self, frame)
+    }
 }
 
-/// Run `$body` with `$e` bound to whichever engine `$engines` holds.
-macro_rules! with_engine {
-    ($engines:expr, $e:ident => $body:expr) => {
-        match $engines {
-            Engines::ColoRadar($e) => $body,
-            Engines::ColoRadarFft($e) => $body,
-            Engines::Iwr6843($e) => $body,
-            Engines::Iwr6843Fft($e) => $body,
+/// `build(preset, chain, sensor, params)`: the engine of every size of
+/// [`dbe_radar::ti_frame_sizes!`], for either chain.
+macro_rules! engine_builder {
+    ($(($n:literal, $k:literal, $tx:literal))*) => {
+        fn build(
+            preset: Preset,
+            chain: Chain,
+            sensor: &SensorConfig,
+            params: Params,
+        ) -> Result<Box<dyn Run>, CoreRunError> {
+            use grid::{AZIMUTH_BINS as NAZ, DETECTIONS as DET, ELEVATION_BINS as NEL};
+            use grid::{LINE as AZ, POINTS as P, RX};
+            match (preset.sizes(), chain) {
+                $(
+                    (($n, $k, $tx, RX), Chain::Dbe) => {
+                        type C = Dbe<$n, $k, $tx, RX, { $tx * RX }, AZ, NAZ, NEL, DET>;
+                        let e = Engine::<$n, $k, $tx, RX, { $tx * RX }, AZ, P, C>::new(
+                            preset, sensor, params,
+                        )?;
+                        Ok(e)
+                    }
+                    (($n, $k, $tx, RX), Chain::Fft) => {
+                        type C = FftChain<$n, $k, $tx, RX, { $tx * RX }, AZ, NAZ, NEL, DET>;
+                        let e = Engine::<$n, $k, $tx, RX, { $tx * RX }, AZ, P, C>::new(
+                            preset, sensor, params,
+                        )?;
+                        Ok(e)
+                    }
+                )*
+                (found, _) => Err(CoreRunError::NoPreset {
+                    found,
+                    nearest: Preset::nearest(found),
+                }),
+            }
         }
     };
 }
 
+dbe_radar::ti_frame_sizes!(engine_builder);
+
 /// The core configured for one sensor, with its buffers on the heap.
 pub struct CoreRunner {
     preset: Preset,
-    engine: Engines,
+    engine: Box<dyn Run>,
 }
 
 impl fmt::Debug for CoreRunner {
@@ -490,18 +587,7 @@ impl CoreRunner {
         chain: Chain,
     ) -> Result<Self, CoreRunError> {
         let preset = Preset::for_sensor(sensor)?;
-        let engine = match (preset, chain) {
-            (Preset::ColoRadar, Chain::Dbe) => {
-                Engines::ColoRadar(Engine::new(preset, sensor, params)?)
-            }
-            (Preset::ColoRadar, Chain::Fft) => {
-                Engines::ColoRadarFft(Engine::new(preset, sensor, params)?)
-            }
-            (Preset::Iwr6843, Chain::Dbe) => Engines::Iwr6843(Engine::new(preset, sensor, params)?),
-            (Preset::Iwr6843, Chain::Fft) => {
-                Engines::Iwr6843Fft(Engine::new(preset, sensor, params)?)
-            }
-        };
+        let engine = build(preset, chain, sensor, params)?;
         Ok(Self { preset, engine })
     }
 
@@ -512,14 +598,13 @@ impl CoreRunner {
 
     /// The processing parameters.
     pub fn params(&self) -> &Params {
-        with_engine!(&self.engine, e => &e.params)
+        self.engine.params()
     }
 
     /// Feed `frame` chirp by chirp in TDM order (loop 0 slot 0, loop 0 slot 1, …) through
     /// `push_chirp`, then process it. A frame of other sizes is an error.
     pub fn process(&mut self, frame: &AdcFrame) -> Result<CoreOutput, CoreRunError> {
-        self.check_shape(frame)?;
-        with_engine!(&mut self.engine, e => e.process(frame))
+        self.process_timed(frame).map(|(out, _)| out)
     }
 
     /// [`Self::process`], with the wall time of every stage.
@@ -528,7 +613,7 @@ impl CoreRunner {
         frame: &AdcFrame,
     ) -> Result<(CoreOutput, StageTimes), CoreRunError> {
         self.check_shape(frame)?;
-        with_engine!(&mut self.engine, e => e.process_timed(frame))
+        self.engine.process_timed(frame)
     }
 
     /// A frame of other sizes than the preset's is an error.
@@ -553,21 +638,61 @@ mod tests {
     use super::*;
 
     #[test]
-    fn unknown_sizes_name_the_compiled_presets() {
+    fn unknown_sizes_name_the_nearest_presets() {
         let mut sensor = SensorConfig::coloradar();
-        sensor.loops = 32;
+        sensor.loops = 48;
         let err = Preset::for_sensor(&sensor).err().map(|e| e.to_string());
         let text = err.unwrap_or_default();
-        assert!(text.contains("32 loops"), "{text}");
-        assert!(text.contains("coloradar (128 samples, 128 loops"), "{text}");
-        assert!(text.contains("iwr6843 (256 samples, 64 loops"), "{text}");
+        // 48 loops lie 0.58 octave above 32 and 0.42 below 64: 64 is nearer.
+        assert!(text.contains("48 loops"), "{text}");
+        assert!(
+            text.contains("nearest: ti-128x64-3tx (128 samples, 64 loops, 3 TX × 4 RX)."),
+            "{text}"
+        );
+        assert!(text.contains("64–512 samples × 16–256 loops"), "{text}");
+        // Presets at the same distance are all named.
+        let tie = Preset::nearest((128, 128, 4, 4));
+        assert_eq!(tie, vec![Preset::of(128, 128, 3), Preset::of(128, 128, 2)]);
+        // Every listed preset is found by its sizes and has a distinct name.
+        let mut names: Vec<String> = Preset::ALL.iter().map(|p| p.name()).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), Preset::ALL.len());
+        assert_eq!(Preset::COLORADAR.name(), "coloradar");
+        assert!(
+            !Preset::of(128, 128, 2).measures_elevation() && Preset::IWR6843.measures_elevation()
+        );
+    }
+
+    #[test]
+    fn every_preset_runs_a_zero_frame_with_both_chains() -> Result<(), CoreRunError> {
+        for p in Preset::ALL {
+            let (n, k, tx, rx) = p.sizes();
+            let base = if tx == 2 {
+                SensorConfig::awr1642()
+            } else {
+                SensorConfig::coloradar()
+            };
+            let sensor = SensorConfig {
+                samples: n,
+                loops: k,
+                ..base
+            };
+            for chain in [Chain::Dbe, Chain::Fft] {
+                let mut runner = CoreRunner::with_chain(&sensor, Params::defaults(n), chain)?;
+                assert_eq!(runner.preset(), p);
+                let out = runner.process(&AdcFrame::zeros(n, k, tx, rx))?;
+                assert!(out.points.is_empty(), "{p} {chain:?}");
+            }
+        }
+        Ok(())
     }
 
     #[test]
     fn a_frame_of_the_wrong_size_is_an_error() -> Result<(), CoreRunError> {
         let sensor = SensorConfig::coloradar();
         let mut runner = CoreRunner::new(&sensor, Params::defaults(128))?;
-        assert_eq!(runner.preset(), Preset::ColoRadar);
+        assert_eq!(runner.preset(), Preset::COLORADAR);
         let frame = AdcFrame::zeros(256, 64, 3, 4);
         assert!(matches!(
             runner.process(&frame),

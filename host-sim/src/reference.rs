@@ -56,7 +56,9 @@
 //!   two 2 × (E − 1) sub-rectangles of `(R_s + J·R_s*·J)/2` (`J` the point mirror), loaded;
 //!   steering vectors and the Capon weight on the first sub-rectangle, zero elsewhere.
 //! - **Elevation (§3.3).** The full (compensated) covariance, loaded, no forward–backward
-//!   averaging; Capon power over `ν_j = sin θ_j` with `a_m = exp(−j·κ·(μ·az_m + ν·el_m))`;
+//!   averaging (an array without an elevation row, all on the azimuth line: forward–backward
+//!   averaged when the map is, and one direction ν = 0 labelled with the elevation bin
+//!   nearest to 0° instead of the sweep's peaks); Capon power over `ν_j = sin θ_j` with `a_m = exp(−j·κ·(μ·az_m + ν·el_m))`;
 //!   keep interior bins with `P[j−1] < P[j] ≥ P[j+1]`, the strongest `max_peaks` (equal powers:
 //!   lower `j` first), each at least `10^(−peak_range_db/10)` times the strongest; drop
 //!   directions with `μ² + ν² ≥ 1`.
@@ -329,6 +331,14 @@ fn grid_sine(span: (f32, f32), bins: usize, x: f64) -> f64 {
 }
 
 /// `sin` of every grid angle.
+/// The bin of a `bins`-bin grid linear in degrees over `span` nearest to elevation `theta_deg`.
+fn nearest_grid_bin(span: (f32, f32), bins: usize, theta_deg: f64) -> usize {
+    let (a, b) = (f64::from(span.0), f64::from(span.1));
+    let step = (b - a) / (bins.max(2) - 1) as f64;
+    let j = ((theta_deg - a) / step).round();
+    (j.max(0.0) as usize).min(bins.saturating_sub(1))
+}
+
 fn sine_grid(span: (f32, f32), bins: usize) -> Vec<f64> {
     (0..bins).map(|i| grid_sine(span, bins, i as f64)).collect()
 }
@@ -1358,11 +1368,17 @@ fn resolve(
     // Stage 3: elevation sweep on the full array, no forward–backward averaging; coherent
     // targets on the rectangle's FBSS covariance.
     let all: Vec<usize> = (0..m).collect();
+    let line_only = setup.array.line == m;
     let (cov, rows) = match beam.coherent {
         true => match setup.coherent_covariance(&r, params) {
             Some(c) => c,
             None => return,
         },
+        // An array without an elevation row is its azimuth line: FB-averaged as on the map.
+        false if line_only && params.forward_backward => (
+            load(&forward_backward(&r), f64::from(params.loading)).0,
+            all,
+        ),
         false => (load(&r, f64::from(params.loading)).0, all),
     };
     let Some(el) = Capon::new(cov) else {
@@ -1374,7 +1390,14 @@ fn resolve(
         .iter()
         .map(|&nu| el.power(&setup.steering_on(&rows, mu, nu)))
         .collect();
-    let peaks = elevation_peaks(&spectrum, &params.elevation, margin);
+    // Without an elevation row: one direction, ν = 0, labelled with the grid bin nearest it.
+    let peaks = match line_only {
+        true => {
+            let j = nearest_grid_bin(params.elevation_span_deg, spectrum.len(), 0.0);
+            vec![(j, spectrum[j])]
+        }
+        false => elevation_peaks(&spectrum, &params.elevation, margin),
+    };
 
     // Stages 4–5. The sweep and the weights use the grid direction; with sub-grid refinement
     // the point's coordinates use the refined one.
@@ -1393,8 +1416,10 @@ fn resolve(
     };
     let nel = setup.el_nu.len();
     for (j, power) in peaks {
-        let nu = setup.el_nu[j];
-        let nu_point = if params.subgrid {
+        let nu = if line_only { 0.0 } else { setup.el_nu[j] };
+        let nu_point = if line_only {
+            0.0
+        } else if params.subgrid {
             let frac = log_parabola_vertex(spectrum[j - 1], spectrum[j], spectrum[j + 1]);
             grid_sine(params.elevation_span_deg, nel, j as f64 + frac)
         } else {

@@ -79,6 +79,33 @@ impl SensorConfig {
         }
     }
 
+    /// A 2 TX × 4 RX radar on one line (`dbe_radar::presets::awr1642`: AWR1642 / IWR1443
+    /// class) with ColoRadar's waveform and frame size; its points are azimuth-only.
+    pub fn awr1642() -> Self {
+        let g = AntennaGeometry::AWR1642;
+        Self {
+            num_tx: 2,
+            tx: g.tx.to_vec(),
+            rx: g.rx.to_vec(),
+            f_design_hz: g.f_design_hz,
+            ..Self::coloradar()
+        }
+    }
+
+    /// Whether the virtual array has elements off its lowest row (an elevation row): without
+    /// one, the chains give azimuth-only points (elevation 0).
+    pub fn measures_elevation(&self) -> bool {
+        let el = |t: &(f32, f32), r: &(f32, f32)| t.1 + r.1;
+        let mut all = self
+            .tx
+            .iter()
+            .flat_map(|t| self.rx.iter().map(move |r| el(t, r)));
+        let Some(first) = all.next() else {
+            return false;
+        };
+        all.any(|e| (e - first).abs() > 1e-3)
+    }
+
     /// The 3 TX × 4 RX geometry the core takes, if the sizes fit.
     pub fn geometry(&self) -> Option<AntennaGeometry<3, 4>> {
         Some(AntennaGeometry {

@@ -615,6 +615,76 @@ fn a_ti_cfg_equivalent_to_the_calibration_gives_the_same_points() -> TestResult 
     Ok(())
 }
 
+/// A 2-TX radar (AWR1642 class: an 8-element line, no elevation row): a sequence simulated
+/// with its calibration and the same recording read with a TI `.cfg` and `--board
+/// awr1642boost` give the same points, all on the horizon, and the record says elevation was
+/// not measured.
+#[test]
+fn a_two_tx_line_array_gives_azimuth_only_points_from_its_calibration_or_a_ti_cfg() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let calib = dir.path().join("calib_2tx");
+    host_sim::io::write_calib(&calib, &host_sim::sensor::SensorConfig::awr1642())?;
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/moving_sensor.toml");
+    let seq = dir.path().join("seq");
+    ok(&[
+        "simulate",
+        "--scene",
+        s(&scene),
+        "--frames",
+        "3",
+        "--calib",
+        s(&calib),
+        "--out",
+        s(&seq),
+    ]);
+    let cfg = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/awr1642_2tx.cfg");
+    let (a, b) = (dir.path().join("calib_out"), dir.path().join("cfg_out"));
+    let o = dbe(&["process", s(&seq), "--out", s(&a), "--format", "csv"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("no elevation row"), "{stderr}");
+    ok(&[
+        "process",
+        s(&seq),
+        "--out",
+        s(&b),
+        "--format",
+        "csv",
+        "--calib",
+        s(&cfg),
+        "--board",
+        "awr1642boost",
+        "--quiet",
+    ]);
+    let mut total = 0;
+    for i in 0..3 {
+        let name = format!("csv/frame_{i}.csv");
+        let pa = host_sim::io::read_csv(&a.join(&name))?;
+        let pb = host_sim::io::read_csv(&b.join(&name))?;
+        assert_eq!(pa.len(), pb.len(), "frame {i}");
+        total += pa.len();
+        for (x, y) in pa.iter().zip(&pb) {
+            assert_eq!(
+                (x.range_bin, x.azimuth_bin, x.elevation_bin, x.doppler_bin),
+                (y.range_bin, y.azimuth_bin, y.elevation_bin, y.doppler_bin)
+            );
+            assert!(x.z == 0.0 && y.z == 0.0, "frame {i}: {x:?}");
+            for (u, v) in [(x.x, y.x), (x.y, y.y), (x.doppler, y.doppler)] {
+                assert!((u - v).abs() < 1e-4, "frame {i}: {u} vs {v}");
+            }
+        }
+    }
+    assert!(total >= 3, "{total} points in 3 frames");
+    for out in [&a, &b] {
+        let run: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("run.json"))?)?;
+        assert_eq!(run["sensor"]["tx"], 2);
+        assert_eq!(run["sensor"]["preset"], "ti-128x128-2tx");
+        assert_eq!(run["sensor"]["elevation_measured"], false);
+    }
+    Ok(())
+}
+
 /// `--format mcap`: one MCAP file, one `foxglove.PointCloud` per frame at the sequence's
 /// timestamps, the CSV's points in the common column order; and the Python `mcap` package
 /// (which `.ci/run` installs) reads it as Foxglove would. Skipped outside CI without it.

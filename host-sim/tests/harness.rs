@@ -67,8 +67,8 @@ fn assert_targets_found(
     let d = derived(sensor);
     let frame_time = sensor.loops as f64 * d.t_loop;
     let (naz, nel) = (
-        Preset::ColoRadar.azimuth_bins(),
-        Preset::ColoRadar.elevation_bins(),
+        Preset::COLORADAR.azimuth_bins(),
+        Preset::COLORADAR.elevation_bins(),
     );
     let az_step =
         f64::from(params.azimuth_span_deg.1 - params.azimuth_span_deg.0) / (naz - 1) as f64;
@@ -78,7 +78,10 @@ fn assert_targets_found(
         let range_mid = t.range() + t.radial_velocity * frame_time / 2.0;
         let (mu, nu) = t.direction();
         let (az_true, el_true) = (mu.asin().to_degrees(), nu.asin().to_degrees());
-        let doppler_true = (t.radial_velocity / d.doppler_bin).round() as i32;
+        // The grid estimate lies within half a bin of the truth plus the slow-time peak's
+        // noise (4σ < 0.08 bin at these SNRs over ≥ 8 antennas and ≥ 32 loops): the nearest
+        // bin, or its neighbour when the truth is within 0.08 bin of their midpoint.
+        let doppler_true = t.radial_velocity / d.doppler_bin;
         let hit = points.iter().find(|p| {
             let range = f64::from(p.range_bin) * d.range_bin;
             let az = grid_deg(params.azimuth_span_deg, naz, p.azimuth_bin);
@@ -92,7 +95,11 @@ fn assert_targets_found(
                 "no point for {t:?} (μ-angle {az_true:.2}°, ν-angle {el_true:.2}°) in {points:#?}"
             );
         };
-        assert_eq!(p.doppler_bin, doppler_true, "Doppler bin of {t:?}");
+        assert!(
+            (f64::from(p.doppler_bin) - doppler_true).abs() <= 0.5 + 0.08,
+            "Doppler bin {} of {t:?}: truth {doppler_true:.3} bins",
+            p.doppler_bin
+        );
     }
 }
 
@@ -134,6 +141,64 @@ fn synthetic_coloradar_targets_agree_and_sit_where_physics_says() -> TestResult 
     let (core, reference) = run_both(&sensor, &params, &frame, &ReferenceOptions::CORE_CONTRACT)?;
     assert_targets_found(&sensor, &params, &reference.points, &targets);
     assert_targets_found(&sensor, &params, &core.points, &targets);
+    Ok(())
+}
+
+/// Other compiled frame sizes and the 2-TX line array (no elevation row) agree with the
+/// reference and put the targets where physics says; a line array's points all lie on the
+/// horizon (elevation not measured, the bin of 0°), so its targets sit there too.
+#[test]
+fn other_frame_sizes_and_a_line_array_agree_and_find_the_targets() -> TestResult {
+    let on_horizon = [
+        Target::at(3.0, 12.0, 0.0, 0.0, 400.0),
+        Target::at(5.2, -25.0, 0.0, 1.5, 150.0),
+        Target::at(7.9, 35.0, 0.0, -1.5, 250.0),
+    ];
+    let sized = |mut s: SensorConfig, samples: usize, loops: usize| {
+        (s.samples, s.loops) = (samples, loops);
+        s
+    };
+    let cases = [
+        (SensorConfig::awr1642(), &on_horizon[..], "ti-128x128-2tx"),
+        (
+            sized(SensorConfig::awr1642(), 256, 32),
+            &on_horizon[..],
+            "ti-256x32-2tx",
+        ),
+        (
+            sized(SensorConfig::coloradar(), 256, 32),
+            &four_targets()[..],
+            "ti-256x32-3tx",
+        ),
+        (
+            sized(SensorConfig::coloradar(), 64, 256),
+            &four_targets()[..],
+            "ti-64x256-3tx",
+        ),
+    ];
+    for (seed, (sensor, targets, name)) in cases.iter().enumerate() {
+        let params = Params::defaults(sensor.samples);
+        let frame = synth_frame(sensor, targets, 10.0, seed as u64);
+        let mut validator = Validator::new(sensor, params)?;
+        assert_eq!(validator.preset().name(), *name);
+        let report = validator.check(&frame)?;
+        assert!(
+            report.agreement.is_match(),
+            "{name}: {}",
+            format_table(std::slice::from_ref(&report))
+        );
+        let (core, reference) =
+            run_both(sensor, &params, &frame, &ReferenceOptions::CORE_CONTRACT)?;
+        assert_targets_found(sensor, &params, &reference.points, targets);
+        assert_targets_found(sensor, &params, &core.points, targets);
+        let line = !sensor.measures_elevation();
+        assert_eq!(line, sensor.num_tx == 2, "{name}");
+        if line {
+            for p in core.points.iter().chain(&reference.points) {
+                assert!(p.z == 0.0 && p.elevation_bin == 50, "{name}: {p:?}");
+            }
+        }
+    }
     Ok(())
 }
 
@@ -362,7 +427,7 @@ fn ti_iwr6843_capture_agrees_and_finds_the_corner_reflector() -> TestResult {
     assert!(frames.is_empty(), "adc_data_Raw_0.bin holds one frame");
     let params = Params::defaults(sensor.samples);
     let mut validator = Validator::new(&sensor, params)?;
-    assert_eq!(validator.preset(), Preset::Iwr6843);
+    assert_eq!(validator.preset(), Preset::IWR6843);
     let report = validator.check(&frame)?;
     eprintln!("{}", format_table(std::slice::from_ref(&report)));
     assert!(report.agreement.is_match());
@@ -552,13 +617,13 @@ fn errors_name_what_is_wrong() -> TestResult {
         other => panic!("expected an input error for frame 1, got {other:?}"),
     }
     let mut odd = SensorConfig::coloradar();
-    odd.samples = 512;
+    odd.samples = 200;
     let text = Validator::new(&odd, params)
         .err()
         .map(|e| e.to_string())
         .unwrap_or_default();
     assert!(
-        text.contains("512 samples") && text.contains("coloradar"),
+        text.contains("200 samples") && text.contains("nearest: ti-256x128-3tx (256 samples"),
         "{text}"
     );
     Ok(())

@@ -41,6 +41,37 @@ fn the_coloradar_cfg_gives_coloradar_s_sensor() -> TestResult {
 }
 
 #[test]
+fn a_two_tx_cfg_on_a_line_board_gives_the_awr1642_sensor() -> TestResult {
+    let cfg = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/awr1642_2tx.cfg");
+    let s = load_ti_cfg(&cfg, Board::Awr1642boost)?;
+    let c = SensorConfig::awr1642();
+    assert_eq!((s.samples, s.loops, s.num_tx, s.num_rx), (128, 128, 2, 4));
+    assert_eq!((&s.tx, &s.rx, s.f_design_hz), (&c.tx, &c.rx, c.f_design_hz));
+    assert!(!s.measures_elevation());
+    // The AWR1843's TX0 and TX2 are the same line (azimuth 0 and 4): 2 TX, no elevation.
+    let dir = tempfile::tempdir()?;
+    let text = std::fs::read_to_string(&cfg)?;
+    let line = dir.path().join("line.cfg");
+    std::fs::write(
+        &line,
+        text.replace("channelCfg 15 3 0", "channelCfg 15 5 0")
+            .replace("chirpCfg 1 1 0 0 0 0 0 2", "chirpCfg 1 1 0 0 0 0 0 4"),
+    )?;
+    let s = load_ti_cfg(&line, Board::Awr1843boost)?;
+    assert_eq!((s.num_tx, &s.tx, s.measures_elevation()), (2, &c.tx, false));
+    // A TX the board does not have is named.
+    let err = load_ti_cfg(&line, Board::Awr1642boost)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        err.contains("TX2 (mask 4) does not exist on the awr1642boost (2 TX)"),
+        "{err}"
+    );
+    Ok(())
+}
+
+#[test]
 fn setups_the_chains_cannot_run_are_refused_naming_the_line() -> TestResult {
     let base = std::fs::read_to_string(coloradar_cfg())?;
     let dir = tempfile::tempdir()?;

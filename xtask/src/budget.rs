@@ -4,7 +4,9 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use host_sim::core_run::{Chain, Preset};
+use host_sim::core_run::Chain;
+
+use crate::Preset;
 use host_sim::frame::AdcFrame;
 
 use crate::*;

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use host_sim::core_run::{Chain, Preset};
+use host_sim::core_run::Chain;
 use host_sim::frame::AdcFrame;
 
 use crate::*;
@@ -64,6 +64,63 @@ impl Board {
         .collect();
         args.push(elf.as_os_str().to_owned());
         args
+    }
+}
+
+/// A core preset with firmware images (`firmware/src/bin/`): the host presets
+/// [`host_sim::core_run::Preset::COLORADAR`] and [`host_sim::core_run::Preset::IWR6843`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preset {
+    /// `dbe_radar::presets::coloradar`: 128 samples, 128 loops, 3 TX × 4 RX.
+    ColoRadar,
+    /// `dbe_radar::presets::iwr6843`: 256 samples, 64 loops, 3 TX × 4 RX.
+    Iwr6843,
+}
+
+impl Preset {
+    /// Every preset with firmware images.
+    pub const ALL: [Preset; 2] = [Preset::ColoRadar, Preset::Iwr6843];
+
+    /// The host preset of the same sizes.
+    pub const fn host(self) -> host_sim::core_run::Preset {
+        match self {
+            Preset::ColoRadar => host_sim::core_run::Preset::COLORADAR,
+            Preset::Iwr6843 => host_sim::core_run::Preset::IWR6843,
+        }
+    }
+
+    /// The preset's name (`coloradar`, `iwr6843`), as the firmware prints it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Preset::ColoRadar => "coloradar",
+            Preset::Iwr6843 => "iwr6843",
+        }
+    }
+
+    /// `(samples, loops, tx, rx)`.
+    pub const fn sizes(self) -> (usize, usize, usize, usize) {
+        self.host().sizes()
+    }
+
+    /// Azimuth grid bins.
+    pub const fn azimuth_bins(self) -> usize {
+        self.host().azimuth_bins()
+    }
+
+    /// Elevation grid bins.
+    pub const fn elevation_bins(self) -> usize {
+        self.host().elevation_bins()
+    }
+
+    /// Detection capacity per frame.
+    pub const fn detection_capacity(self) -> usize {
+        self.host().detection_capacity()
+    }
+}
+
+impl std::fmt::Display for Preset {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.host().fmt(f)
     }
 }
 

@@ -4,7 +4,9 @@ use crate::*;
 use std::path::Path;
 
 use crate::elf::static_name;
-use host_sim::core_run::{Chain, Preset};
+use host_sim::core_run::Chain;
+
+use crate::Preset;
 use host_sim::sensor::SensorConfig;
 
 const GOOD: &str =

@@ -60,12 +60,12 @@ use std::sync::OnceLock;
 use dbe_radar::config::ArrayLayout;
 use dbe_radar::{AntennaGeometry, Params};
 use host_sim::cloud::PointRecord;
-use host_sim::core_run::{Chain, CoreOutput, CoreRunner, Preset};
+use host_sim::core_run::{Chain, CoreOutput, CoreRunner};
 use host_sim::frame::AdcFrame;
 use host_sim::harness;
 use host_sim::reference::{self, ReferenceOptions};
 use host_sim::sensor::SensorConfig;
-use xtask::{self as firmware, Board, FirmwareError, Image, Layout, Measurement};
+use xtask::{self as firmware, Board, FirmwareError, Image, Layout, Measurement, Preset};
 
 /// Largest relative difference of a linear power (module docs).
 const POWER_RELATIVE: f64 = 1e-3;

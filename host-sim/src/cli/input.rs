@@ -180,20 +180,36 @@ fn refuse_headerless_capture(path: &Path, dir: &Path) -> Result<()> {
     let bytes = std::fs::metadata(path)
         .with_context(|| format!("{}: cannot read", path.display()))?
         .len();
-    let fits: Vec<String> = host_sim::core_run::Preset::ALL
+    // The presets whose frame size divides the file, fewest (largest) frames first: many
+    // small presets divide any capture, the few largest are the likely ones.
+    let mut fits: Vec<(u64, String)> = host_sim::core_run::Preset::ALL
         .iter()
         .filter_map(|p| {
             let (n, k, tx, rx) = p.sizes();
             let frame = (n * k * tx * rx * 4) as u64;
-            (bytes > 0 && bytes % frame == 0).then(|| format!("{p}: {} frames", bytes / frame))
+            (bytes > 0 && bytes % frame == 0).then(|| {
+                let count = bytes / frame;
+                (
+                    count,
+                    format!("{p}: {count} frame{}", if count == 1 { "" } else { "s" }),
+                )
+            })
         })
         .collect();
-    let hint = if fits.is_empty() {
+    fits.sort_by_key(|f| f.0);
+    const SHOWN: usize = 5;
+    let more = fits.len().saturating_sub(SHOWN);
+    let named: Vec<String> = fits.into_iter().take(SHOWN).map(|f| f.1).collect();
+    let hint = if named.is_empty() {
         "no compiled preset's frame size divides it".to_string()
     } else {
+        let more = match more {
+            0 => String::new(),
+            m => format!(", or {m} smaller presets"),
+        };
         format!(
-            "its {bytes} bytes are whole frames of {}",
-            fits.join(" or ")
+            "its {bytes} bytes are whole frames of {}{more}",
+            named.join(" or ")
         )
     };
     bail!(

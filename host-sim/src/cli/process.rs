@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use host_sim::cloud::PointRecord;
-use host_sim::core_run::{Chain, CoreRunner};
+use host_sim::core_run::{Chain, CoreRunner, Preset};
 use host_sim::io::mcap::{write_mcap, McapFrame};
 use host_sim::io::pointcloud::{write_coloradar_bin, write_csv, write_pcd, write_ply, PlyEncoding};
 use host_sim::io::{write_file_atomic, StagedDir};
@@ -243,6 +243,13 @@ fn run_record(
             "loops": opened.sensor.loops,
             "tx": opened.sensor.num_tx,
             "rx": opened.sensor.num_rx,
+            "preset": Preset::for_sensor(&opened.sensor).map(|p| p.name()).ok(),
+            "elevation_measured": opened.sensor.measures_elevation(),
+            "elevation": if opened.sensor.measures_elevation() {
+                "measured (the array has an elevation row)"
+            } else {
+                "not measured: the virtual array is one line (no elevation row), every point has elevation 0 (z = 0)"
+            },
         },
         "frames": {
             "first_input_index": range.start,
@@ -273,6 +280,12 @@ pub fn run(args: &ProcessArgs) -> Result<()> {
             opened.sensor.num_rx,
             opened.calib_source
         );
+        if !opened.sensor.measures_elevation() {
+            eprintln!(
+                "note: the virtual array is one line (no elevation row): azimuth-only points, \
+                 every elevation 0 (z = 0)"
+            );
+        }
     }
     let staged = StagedDir::new(&args.out)?;
     let results = run_frames(

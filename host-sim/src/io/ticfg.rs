@@ -32,12 +32,15 @@ pub enum Board {
     Iwr6843isk,
     /// IWR6843AOP: antennas on package, a 2-D virtual array.
     Iwr6843aop,
+    /// AWR1642BOOST (and IWR1642/IWR1443BOOST): TX0 az 0, TX1 az 4, both on the RX line; RX
+    /// az 0..3. An 8-element line without an elevation row: azimuth-only points.
+    Awr1642boost,
 }
 
 /// Antenna layout of a board: physical TX and RX positions `(az, el)` in half-wavelength units
 /// at `f_design_hz`.
 struct Layout {
-    tx: [(f32, f32); 3],
+    tx: &'static [(f32, f32)],
     rx: [(f32, f32); 4],
     f_design_hz: f64,
 }
@@ -49,6 +52,7 @@ impl Board {
             Board::Awr1843boost => "awr1843boost",
             Board::Iwr6843isk => "iwr6843isk",
             Board::Iwr6843aop => "iwr6843aop",
+            Board::Awr1642boost => "awr1642boost",
         }
     }
 
@@ -57,13 +61,19 @@ impl Board {
         match self {
             // F_design as in ColoRadar's calibration of this board (76.8 GHz).
             Board::Awr1843boost => Ok(Layout {
-                tx: [(0.0, 0.0), (2.0, 1.0), (4.0, 0.0)],
+                tx: &[(0.0, 0.0), (2.0, 1.0), (4.0, 0.0)],
+                rx: line,
+                f_design_hz: 76.8e9,
+            }),
+            // The TI layout of the 77 GHz 2-TX boards, at ColoRadar's 76.8 GHz design unit.
+            Board::Awr1642boost => Ok(Layout {
+                tx: &[(0.0, 0.0), (4.0, 0.0)],
                 rx: line,
                 f_design_hz: 76.8e9,
             }),
             // As in the IWR6843 corner-reflector fixture (layout inferred from its phases).
             Board::Iwr6843isk => Ok(Layout {
-                tx: [(0.0, 0.0), (2.0, 1.0), (4.0, 0.0)],
+                tx: &[(0.0, 0.0), (2.0, 1.0), (4.0, 0.0)],
                 rx: line,
                 f_design_hz: 60.5e9,
             }),
@@ -211,6 +221,17 @@ pub fn load_ti_cfg(path: &Path, board: Board) -> Result<SensorConfig, IoError> {
             return Err(IoError::syntax(path, *line, format!("chirpCfg: TX mask {mask} enables {} transmitters; the chains need time-division MIMO, one TX (mask 1, 2 or 4) per chirp", mask.count_ones())));
         }
         let tx = mask.trailing_zeros() as usize;
+        if tx >= layout.tx.len() {
+            return Err(IoError::syntax(
+                path,
+                *line,
+                format!(
+                    "chirpCfg: TX{tx} (mask {mask}) does not exist on the {} ({} TX)",
+                    board.name(),
+                    layout.tx.len()
+                ),
+            ));
+        }
         if tx_mask & mask == 0 {
             return Err(IoError::syntax(path, *line, format!("chirpCfg: TX{tx} is not enabled in channelCfg (line {cline}, TX mask {tx_mask})")));
         }

@@ -89,7 +89,7 @@ pub fn derived(sensor: &SensorConfig) -> Derived {
 }
 
 /// One frame of `sensor` seeing `targets`, spec §2: per virtual antenna m = (t, r), loop k,
-/// sample n, `A·exp(j·[2π·(2·S·R/c)·n/fs + 4π·R/λ − κ·(μ·az_m + ν·el_m) + φ0])` with
+/// sample n, `A·exp(j·[2π·(2·S·R/c)·n/fs + 4π·R·f_0/c − κ·(μ·az_m + ν·el_m) + φ0])` with
 /// `R = R0 + v·τ`, `τ = k·T_loop + t·Tc`, a random φ0 per target, plus complex white
 /// Gaussian noise of standard deviation `noise_sigma` per component, rounded and clipped to
 /// int16.
@@ -102,6 +102,9 @@ pub fn synth_frame(
     let d = derived(sensor);
     let w = &sensor.waveform;
     let kappa = PI * d.fc / sensor.f_design_hz;
+    // Spec §2 (amended): the range phase's carrier is the first sample's frequency f_0, not
+    // f_c (with f_c, simulated Doppler reads B/(2·f_c) high: 0.77 % on ColoRadar's waveform).
+    let f0 = sensor.first_sample_frequency_hz();
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let phases: Vec<f64> = targets
         .iter()
@@ -123,7 +126,7 @@ pub fn synth_frame(
                         let (mu, nu) = tg.direction();
                         let beat = 2.0 * w.slope_hz_per_s * range / C;
                         let phase = 2.0 * PI * beat * n as f64 / w.adc_sample_rate_hz
-                            + 4.0 * PI * range / d.lambda
+                            + 4.0 * PI * range * f0 / C
                             - kappa * (mu * az + nu * el)
                             + phi0;
                         re += tg.amplitude * phase.cos();
