@@ -84,3 +84,58 @@ fn iwr6843_buffers() {
     let dbe = size_of::<p::Dbe>();
     assert!(dbe >= tables && dbe <= tables + 512, "Dbe is {dbe} bytes");
 }
+
+/// One row of memory-layout.md's table of every compiled frame size: the 64-bit host sizes
+/// of the buffers of `(samples, loops, TX)` with the ColoRadar preset's grids and capacities.
+fn preset_rows() -> Vec<String> {
+    use presets::coloradar::{AZIMUTH_BINS as NAZ, DETECTIONS as DET, ELEVATION_BINS as NEL};
+    use presets::coloradar::{POINTS as P, RX};
+    fn n(x: usize) -> String {
+        let s = x.to_string();
+        let mut out = String::new();
+        for (i, c) in s.chars().enumerate() {
+            if i > 0 && (s.len() - i) % 3 == 0 {
+                out.push(',');
+            }
+            out.push(c);
+        }
+        out
+    }
+    macro_rules! rows {
+        ($(($n:literal, $k:literal, $tx:literal))*) => {
+            vec![$({
+                const M: usize = $tx * RX;
+                let cube = size_of::<dbe_radar::cube::CubeStorage<$n, $k, M>>()
+                    + size_of::<dbe_radar::Cube<'_, $n, $k, M>>();
+                let frontend = size_of::<dbe_radar::Frontend<$n, $k, $tx, RX, M, 8>>();
+                let work = size_of::<dbe_radar::Workspace<$n, $k, M, NAZ, DET>>();
+                let dbe = size_of::<dbe_radar::Dbe<$n, $k, $tx, RX, M, 8, NAZ, NEL, DET>>();
+                let fft_work = size_of::<dbe_radar::FftWorkspace<$n, $k, M, DET>>();
+                let fft = size_of::<dbe_radar::FftChain<$n, $k, $tx, RX, M, 8, NAZ, NEL, DET>>();
+                let common = cube + frontend + size_of::<dbe_radar::PointCloud<P>>()
+                    + size_of::<dbe_radar::EgoEstimator<DET>>();
+                format!(
+                    "| {} × {} | {} | {} | {} | {} | {} | **{}** | {} | {} | **{}** |",
+                    $n, $k, $tx, n(cube), n(frontend), n(work), n(dbe),
+                    n(common + work + dbe), n(fft_work), n(fft), n(common + fft_work + fft)
+                )
+            }),*]
+        };
+    }
+    dbe_radar::ti_frame_sizes!(rows)
+}
+
+#[test]
+fn memory_layout_lists_every_compiled_frame_size() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/memory-layout.md");
+    let doc = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    let missing: Vec<String> = preset_rows()
+        .into_iter()
+        .filter(|row| !doc.contains(row.as_str()))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "memory-layout.md lacks these rows of the frame-size table:\n{}",
+        missing.join("\n")
+    );
+}

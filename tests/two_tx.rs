@@ -55,7 +55,7 @@ fn cloud<
 
 #[test]
 fn both_chains_give_azimuth_only_points_on_a_line_array() {
-    assert!(!p::Frontend::MEASURES_ELEVATION);
+    const { assert!(!p::Frontend::MEASURES_ELEVATION) };
     let frontend = p::frontend().unwrap();
     let dbe = p::dbe(&frontend).unwrap();
     let fft = p::fft_chain(&frontend).unwrap();

@@ -72,7 +72,7 @@ impl Input {
         let (sensor, calib_source, calib_dir) = match (calib, ti_cfg, board) {
             (_, Some(c), None) => bail!(
                 "{}: a TI .cfg does not say where the antennas are; add --board awr1843boost, \
-                 iwr6843isk or iwr6843aop",
+                 iwr6843isk, awr1642boost or iwr6843aop",
                 c.display()
             ),
             (_, None, Some(b)) => bail!(
