@@ -1,4 +1,7 @@
-//! Build script: put `memory.x` on the linker path and embed one ADC frame per preset.
+//! Build script: put the board's memory map (`memory-an386.x`, or `memory-an505.x` for the
+//! Armv8-M target) on the linker path as `memory.x` and embed one ADC frame per preset. (No
+//! file of the package is called `memory.x`: the linker would find it in the package folder
+//! before `OUT_DIR`.)
 //!
 //! The frames are made by the host tool, `cargo xtask frames` (the repository root), in the
 //! order a DMA delivers them: loop → TX slot → RX → sample, `[I, Q]` as int16 little-endian:
@@ -34,15 +37,25 @@ fn run() -> Result<(), String> {
         env::var("CARGO_MANIFEST_DIR").map_err(|_| "CARGO_MANIFEST_DIR is not set".to_string())?,
     );
 
-    // Linker script.
-    fs::copy(manifest.join("memory.x"), out.join("memory.x")).map_err(|e| {
+    // Linker script: the MPS2 AN385/AN386/AN500 map for Armv7-M, the AN505's Secure aliases
+    // for Armv8-M (the Cortex-M33 board); the clock's counter address follows (`mps2_tz`).
+    println!("cargo:rustc-check-cfg=cfg(mps2_tz)");
+    let target = env::var("TARGET").unwrap_or_default();
+    let memory = if target.starts_with("thumbv8m") {
+        println!("cargo:rustc-cfg=mps2_tz");
+        "memory-an505.x"
+    } else {
+        "memory-an386.x"
+    };
+    fs::copy(manifest.join(memory), out.join("memory.x")).map_err(|e| {
         format!(
             "{}: cannot copy to OUT_DIR: {e}",
-            manifest.join("memory.x").display()
+            manifest.join(memory).display()
         )
     })?;
     println!("cargo:rustc-link-search={}", out.display());
-    println!("cargo:rerun-if-changed=memory.x");
+    println!("cargo:rerun-if-changed=memory-an386.x");
+    println!("cargo:rerun-if-changed=memory-an505.x");
     println!("cargo:rerun-if-changed=build.rs");
 
     println!("cargo:rerun-if-env-changed=DBE_FW_FRAMES");

@@ -2,8 +2,8 @@
 //!
 //! Under `qemu-system-arm -icount shift=0` QEMU's virtual clock advances exactly 1 ns per
 //! guest instruction, and every timer of the board runs on that clock. The FPGA IO block's
-//! `COUNTER` register (MPS2 AN385/AN386/AN500, base `0x4002_8000`, offset `0x18`) counts up at
-//! the 25 MHz prescaler clock (`PRESCALE` = 0 after reset), so one tick is 40 instructions and
+//! `COUNTER` register (MPS2 AN385/AN386/AN500, base `0x4002_8000`, offset `0x18`; AN505 below)
+//! counts up at the 25 MHz prescaler clock (`PRESCALE` = 0 after reset), so one tick is 40 instructions and
 //! the 32-bit counter wraps after 2³² ticks ≈ 1.7·10¹¹ instructions, far beyond one run.
 //! SysTick would do as well but is 24 bits wide and wraps every 6.7·10⁸ instructions, less
 //! than one ColoRadar frame takes.
@@ -16,14 +16,20 @@
 use core::ptr::read_volatile;
 
 /// Address of the FPGA IO `COUNTER` register (AN386 TRM, "FPGA system control and I/O").
+#[cfg(not(mps2_tz))]
 const FPGAIO_COUNTER: usize = 0x4002_8018;
+/// The same register on the AN505 (Cortex-M33): FPGA IO at `0x4030_2000`, reached through its
+/// Secure alias `0x5030_2000` (the core runs Secure; the block's PPC leaves it Secure-only
+/// after reset). Its prescaler clock is 20 MHz there: 50 instructions per tick, calibrated.
+#[cfg(mps2_tz)]
+const FPGAIO_COUNTER: usize = 0x5030_2018;
 
 /// The current counter value, ticks.
 #[inline(always)]
 #[allow(unsafe_code)]
 pub fn ticks() -> u32 {
     // SAFETY: a 32-bit aligned read of a read-only memory-mapped register of the MPS2 FPGA IO
-    // block, present on every board this firmware runs on (mps2-an385/386/500); reading it has
+    // block, present on every board this firmware runs on (mps2-an385/386/500/505); reading it has
     // no side effect on the program's memory.
     unsafe { read_volatile(FPGAIO_COUNTER as *const u32) }
 }

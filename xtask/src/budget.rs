@@ -63,6 +63,23 @@ pub struct CoreBudget {
     pub instructions_per_frame: BTreeMap<String, u64>,
     /// Clock for 10 frames per second: instructions × 10 × CPI, MHz (image name → MHz).
     pub clock_mhz_for_10_fps: BTreeMap<String, f64>,
+    /// The images of this core's own build (image name → figures), when its target is not
+    /// the Cortex-M4F's (the Cortex-M33); empty when the core runs the M4F's images.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub images: BTreeMap<String, CoreImage>,
+}
+
+/// One image built for a core's own target: memory and instructions, measured as the M4F's.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CoreImage {
+    /// Static RAM (`.data + .bss`), bytes.
+    pub static_ram_bytes: u64,
+    /// Stack peak over the run, bytes.
+    pub stack_peak_bytes: u64,
+    /// Code memory without the embedded test frame, bytes.
+    pub flash_bytes: u64,
+    /// Instructions per stage.
+    pub instructions_per_stage: BTreeMap<String, u64>,
 }
 
 /// The cores of the budget: board, and the CPI assumed for the chains' code (FPU and
@@ -70,7 +87,10 @@ pub struct CoreBudget {
 /// arithmetic 1 cycle, loads 2 (1 when pipelined), VDIV/VSQRT 14, taken branches 2–4: 1.25.
 /// Cortex-M7: dual-issue 6-stage pipeline with TCM, about 1.5× the M4's work per cycle
 /// (Arm's CoreMark/MHz, 5.01 vs 3.42): 0.75 (rounded to the safe side of 1.25 / 1.47).
-pub const CORES: [(&str, Board, f64, &str); 2] = [
+/// Cortex-M33: 3-stage pipeline with limited dual issue of 16-bit instructions, the M4F's FPU
+/// timings, about 1.18× the M4's work per cycle (CoreMark/MHz 4.02 vs 3.42): 1.1 (the safe
+/// side of 1.25 / 1.18 = 1.06).
+pub const CORES: [(&str, Board, f64, &str); 3] = [
     (
         "Cortex-M4F",
         Board::An386,
@@ -82,6 +102,12 @@ pub const CORES: [(&str, Board, f64, &str); 2] = [
         Board::An500,
         0.75,
         "dual-issue, ~1.5× the M4's work per cycle (CoreMark/MHz 5.01 vs 3.42); TCM, no cache misses",
+    ),
+    (
+        "Cortex-M33",
+        Board::An505,
+        1.1,
+        "limited dual issue, the M4F's FPU timings, ~1.18× the M4's work per cycle (CoreMark/MHz 4.02 vs 3.42); zero-wait memory",
     ),
 ];
 
@@ -202,16 +228,31 @@ pub fn measure(layout: &Layout) -> Result<(Budget, Vec<Measurement>, AdcFrame), 
     let mut cores = Vec::new();
     for (core, board, cpi, basis) in CORES {
         let mut counts = BTreeMap::new();
+        let mut images = BTreeMap::new();
         for m in &measurements {
             let n = if board == Board::An386 {
                 m.budget.instructions_per_frame
             } else {
                 let run = parse_output(&run(layout, m.image, board)?)?;
-                if run.points != m.run.points {
+                // Points bit for bit: another core (M7) or another build of the same code
+                // for another ISA (M33) must not change a number.
+                if run.points != m.run.points || run.stats != m.run.stats {
                     return Err(FirmwareError::Output {
                         line: 0,
                         message: format!("{} on {core}: points differ from the M4F's", m.image),
                     });
+                }
+                if board.target() != TARGET {
+                    let elf = elf_memory(&layout.elf_for(m.image, board.target()))?;
+                    images.insert(
+                        m.image.name().to_string(),
+                        CoreImage {
+                            static_ram_bytes: elf.static_ram(),
+                            stack_peak_bytes: run.stack_setup.max(run.stack_frame),
+                            flash_bytes: elf.flash(),
+                            instructions_per_stage: run.stages.clone(),
+                        },
+                    );
                 }
                 run.stages.get("total").copied().unwrap_or(0)
             };
@@ -220,7 +261,7 @@ pub fn measure(layout: &Layout) -> Result<(Budget, Vec<Measurement>, AdcFrame), 
         cores.push(CoreBudget {
             core: core.into(),
             board: format!("{} ({})", board.machine(), board.cpu()),
-            target: TARGET.into(),
+            target: board.target().into(),
             assumed_cpi: cpi,
             cpi_basis: basis.into(),
             clock_mhz_for_10_fps: counts
@@ -228,6 +269,7 @@ pub fn measure(layout: &Layout) -> Result<(Budget, Vec<Measurement>, AdcFrame), 
                 .map(|(k, &n)| (k.clone(), clock_mhz(n, cpi)))
                 .collect(),
             instructions_per_frame: counts,
+            images,
         });
     }
     let fw = layout.firmware();
@@ -567,12 +609,12 @@ pub fn render_markdown(budget: &Budget) -> String {
 fn cores_table(s: &mut String, budget: &Budget) {
     let _ = writeln!(
         s,
-        "\nPer core: instructions per frame measured on that core's QEMU board (the same \
-         `{TARGET}` images; QEMU counts instructions, so the counts agree), and the clock 10 \
-         frames per second need, **derived** as instructions × 10 × an assumed cycles per \
-         instruction (CPI; QEMU models no pipeline, so cycles are not measured); each cell is \
-         instructions per frame → MHz for 10 frames per second. Flash, RAM and stack are the \
-         images' above on every core.\n"
+        "\nPer core: instructions per frame measured on that core's QEMU board (the Cortex-M4F \
+         and M7 run the same `{TARGET}` images, so their counts agree; the Cortex-M33 runs its \
+         own `{TARGET_V8M}` build, below), and the clock 10 frames per second need, **derived** \
+         as instructions × 10 × an assumed cycles per instruction (CPI; QEMU models no \
+         pipeline, so cycles are not measured); each cell is instructions per frame → MHz for \
+         10 frames per second. Every core's points equal the M4F's bit for bit.\n"
     );
     let names: Vec<&str> = budget.presets.iter().map(|p| p.preset.as_str()).collect();
     let _ = writeln!(
@@ -607,6 +649,60 @@ fn cores_table(s: &mut String, budget: &Budget) {
     for c in &budget.cores {
         let _ = writeln!(s, "- {} CPI {}: {}.", c.core, c.assumed_cpi, c.cpi_basis);
     }
+    for c in budget.cores.iter().filter(|c| !c.images.is_empty()) {
+        core_images_table(s, c, &names);
+    }
+}
+
+/// The figures of a core's own build (`CoreBudget::images`), one column per image.
+fn core_images_table(s: &mut String, c: &CoreBudget, names: &[&str]) {
+    let _ = writeln!(
+        s,
+        "\n{} (`{}`, its own build of the same images on {}): memory and instructions, \
+         measured as above.\n",
+        c.core, c.target, c.board
+    );
+    let _ = writeln!(s, "| {} | {} |", c.core, names.join(" | "));
+    let _ = writeln!(s, "|---|{}", "---:|".repeat(names.len()));
+    type Cell = fn(&CoreImage) -> u64;
+    let stage = |img: &CoreImage, k: &str| img.instructions_per_stage.get(k).copied().unwrap_or(0);
+    let rows: [(&str, Cell); 6] = [
+        ("static RAM (bytes)", |i| i.static_ram_bytes),
+        ("stack peak (bytes)", |i| i.stack_peak_bytes),
+        ("flash without the test frame (bytes)", |i| i.flash_bytes),
+        ("setup (instructions, once)", |i| {
+            i.instructions_per_stage.get("setup").copied().unwrap_or(0)
+        }),
+        ("ingest: all K·TX chirps (instructions)", |i| {
+            i.instructions_per_stage.get("ingest").copied().unwrap_or(0)
+        }),
+        ("`process` (instructions)", |i| {
+            i.instructions_per_stage
+                .get("process")
+                .copied()
+                .unwrap_or(0)
+        }),
+    ];
+    for (label, cell) in rows {
+        let cells: Vec<String> = names
+            .iter()
+            .map(|n| c.images.get(*n).map_or("–".into(), |i| thousands(cell(i))))
+            .collect();
+        let _ = writeln!(s, "| {label} | {} |", cells.join(" | "));
+    }
+    let totals: Vec<String> = names
+        .iter()
+        .map(|n| {
+            c.images
+                .get(*n)
+                .map_or("–".into(), |i| thousands(stage(i, "total")))
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "| **per frame** (instructions) | {} |",
+        totals.join(" | ")
+    );
 }
 
 /// `doc` with the text between the [`BLOCK_BEGIN`] and [`BLOCK_END`] lines replaced by
@@ -692,6 +788,16 @@ pub fn stale(layout: &Layout, measured: Option<&Budget>) -> Result<Vec<String>, 
                     && p.flash_bytes.abs_diff(q.flash_bytes) <= FLASH_TOLERANCE_BYTES
                 {
                     p.flash_bytes = q.flash_bytes;
+                }
+            }
+            for (c, d) in m.cores.iter_mut().zip(old.cores.iter()) {
+                for (name, img) in c.images.iter_mut() {
+                    let Some(o) = d.images.get(name) else {
+                        continue;
+                    };
+                    if img.flash_bytes.abs_diff(o.flash_bytes) <= FLASH_TOLERANCE_BYTES {
+                        img.flash_bytes = o.flash_bytes;
+                    }
                 }
             }
         }

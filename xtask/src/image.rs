@@ -14,22 +14,30 @@ use crate::*;
 /// Longest a single QEMU run may take before it is killed (a hung firmware).
 const RUN_TIMEOUT: Duration = Duration::from_secs(600);
 
-/// A QEMU board the firmware runs on. Both have 4 MiB of code SSRAM at 0 and 4 MiB of data
-/// SSRAM at `0x2000_0000` (see `firmware/memory.x`), so one image runs on either.
+/// A QEMU board the firmware runs on. The AN386 and AN500 have 4 MiB of code SSRAM at 0 and
+/// 4 MiB of data SSRAM at `0x2000_0000` (see `firmware/memory-an386.x`), so one `thumbv7em` image
+/// runs on either; the AN505 (Armv8-M) runs its own build, linked at the Secure aliases of the
+/// same two 4 MiB memories (`firmware/memory-an505.x`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Board {
     /// MPS2 AN386, Cortex-M4F: the board the budget is measured on.
     An386,
     /// MPS2 AN500, Cortex-M7.
     An500,
+    /// MPS2 AN505, Cortex-M33 (the `thumbv8m.main-none-eabihf` build).
+    An505,
 }
 
 impl Board {
+    /// Every board, as `cargo xtask firmware --board` names them.
+    pub const ALL: [Board; 3] = [Board::An386, Board::An500, Board::An505];
+
     /// QEMU's `-machine` name.
     pub const fn machine(self) -> &'static str {
         match self {
             Board::An386 => "mps2-an386",
             Board::An500 => "mps2-an500",
+            Board::An505 => "mps2-an505",
         }
     }
 
@@ -38,7 +46,21 @@ impl Board {
         match self {
             Board::An386 => "cortex-m4",
             Board::An500 => "cortex-m7",
+            Board::An505 => "cortex-m33",
         }
+    }
+
+    /// The Rust target of the images this board runs.
+    pub const fn target(self) -> &'static str {
+        match self {
+            Board::An386 | Board::An500 => TARGET,
+            Board::An505 => TARGET_V8M,
+        }
+    }
+
+    /// The name `cargo xtask firmware --board` takes: `an386`, `an500`, `an505`.
+    pub fn short_name(self) -> &'static str {
+        self.machine().trim_start_matches("mps2-")
     }
 
     /// QEMU's arguments to run `elf` on this board, deterministically (see the module docs).
@@ -225,11 +247,16 @@ impl Layout {
         self.firmware().join("target").join("frames")
     }
 
-    /// The firmware ELF of `image`.
+    /// The firmware ELF of `image` (the `thumbv7em` build, Cortex-M4F and M7).
     pub fn elf(&self, image: Image) -> PathBuf {
+        self.elf_for(image, TARGET)
+    }
+
+    /// The firmware ELF of `image` built for the Rust `target`.
+    pub fn elf_for(&self, image: Image, target: &str) -> PathBuf {
         self.firmware()
             .join("target")
-            .join(TARGET)
+            .join(target)
             .join("release")
             .join(image.name())
     }
@@ -264,12 +291,16 @@ pub fn check_tools() -> Result<(), FirmwareError> {
         .ok()
         .filter(|o| o.status.success())
         .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()));
-    let has_target = sysroot.is_some_and(|s| s.join("lib/rustlib").join(TARGET).is_dir());
-    if !has_target {
-        return Err(FirmwareError::ToolMissing {
-            tool: format!("the {TARGET} Rust target"),
-            hint: format!("rustup target add {TARGET}"),
-        });
+    for target in [TARGET, TARGET_V8M] {
+        let has_target = sysroot
+            .as_ref()
+            .is_some_and(|s| s.join("lib/rustlib").join(target).is_dir());
+        if !has_target {
+            return Err(FirmwareError::ToolMissing {
+                tool: format!("the {target} Rust target"),
+                hint: format!("rustup target add {target}"),
+            });
+        }
     }
     Ok(())
 }
@@ -365,21 +396,24 @@ fn tail_of(text: &str) -> String {
     lines[lines.len().saturating_sub(10)..].join("\n")
 }
 
-/// Write the ColoRadar frame where `build.rs` reads it and build every firmware binary
-/// (`cargo build --release` in `firmware/`). Returns the frame that was embedded.
+/// Write the ColoRadar frame where `build.rs` reads it and build every firmware binary for
+/// both targets (`cargo build --release --target T` in `firmware/`: [`TARGET`] for the
+/// Cortex-M4F and M7, [`TARGET_V8M`] for the Cortex-M33). Returns the frame that was embedded.
 pub fn build(layout: &Layout) -> Result<AdcFrame, FirmwareError> {
     check_tools()?;
     let frame = write_frames(layout)?;
-    let mut cmd = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
-    cmd.args(["build", "--release", "--quiet"])
-        .current_dir(layout.firmware())
-        .env("DBE_FW_FRAMES", layout.frames_dir())
-        .env("CARGO_ENCODED_RUSTFLAGS", firmware_rustflags(&layout.repo))
-        // The host build's settings must not leak into the cross build.
-        .env_remove("CARGO_TARGET_DIR")
-        .env_remove("CARGO_BUILD_TARGET")
-        .env_remove("RUSTFLAGS");
-    run_command(cmd, Duration::from_secs(1800))?;
+    for target in [TARGET, TARGET_V8M] {
+        let mut cmd = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
+        cmd.args(["build", "--release", "--quiet", "--target", target])
+            .current_dir(layout.firmware())
+            .env("DBE_FW_FRAMES", layout.frames_dir())
+            .env("CARGO_ENCODED_RUSTFLAGS", firmware_rustflags(&layout.repo))
+            // The host build's settings must not leak into the cross build.
+            .env_remove("CARGO_TARGET_DIR")
+            .env_remove("CARGO_BUILD_TARGET")
+            .env_remove("RUSTFLAGS");
+        run_command(cmd, Duration::from_secs(1800))?;
+    }
     Ok(frame)
 }
 
@@ -405,9 +439,10 @@ pub fn firmware_rustflags(repo: &Path) -> String {
     flags.join("\x1f")
 }
 
-/// Run the firmware image `image` on `board`; its standard output.
+/// Run the firmware image `image` (its build for the board's target) on `board`; its
+/// standard output.
 pub fn run(layout: &Layout, image: Image, board: Board) -> Result<String, FirmwareError> {
-    let elf = layout.elf(image);
+    let elf = layout.elf_for(image, board.target());
     if !elf.is_file() {
         return Err(FirmwareError::BadInput {
             path: elf,

@@ -60,8 +60,10 @@ pub use image::*;
 pub(crate) use image::{run_command, version_line};
 pub use protocol::*;
 
-/// The firmware's Rust target.
+/// The firmware's Rust target (Cortex-M4F and M7 images).
 pub const TARGET: &str = "thumbv7em-none-eabihf";
+/// The Rust target of the Cortex-M33 (Armv8-M Mainline) images, run on [`Board::An505`].
+pub const TARGET_V8M: &str = "thumbv8m.main-none-eabihf";
 
 /// The QEMU system emulator for Arm.
 pub const QEMU: &str = "qemu-system-arm";

@@ -41,7 +41,7 @@ enum Command {
         /// The image: coloradar, iwr6843 (DBE chain), coloradar-fft, iwr6843-fft.
         #[arg(default_value = "coloradar")]
         image: String,
-        /// The board: an386 (Cortex-M4F, the budget's) or an500 (Cortex-M7).
+        /// The board: an386 (Cortex-M4F, the budget's), an500 (Cortex-M7) or an505 (Cortex-M33).
         #[arg(long, default_value = "an386")]
         board: String,
     },
@@ -84,11 +84,10 @@ fn run(command: Command) -> Result<bool, FirmwareError> {
                 .into_iter()
                 .find(|i| i.name() == image)
                 .ok_or_else(|| usage(format!("unknown image `{image}` ({})", image_names())))?;
-            let board = match board.as_str() {
-                "an386" => Board::An386,
-                "an500" => Board::An500,
-                other => return Err(usage(format!("unknown board `{other}` (an386, an500)"))),
-            };
+            let board = Board::ALL
+                .into_iter()
+                .find(|b| b.short_name() == board)
+                .ok_or_else(|| usage(format!("unknown board `{board}` (an386, an500, an505)")))?;
             xtask::check_tools()?;
             xtask::build(&layout)?;
             print!("{}", xtask::run(&layout, image, board)?);

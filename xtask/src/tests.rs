@@ -147,6 +147,7 @@ fn markdown_keeps_each_chain_in_its_own_table() {
             ]
             .into_iter()
             .collect(),
+            images: Default::default(),
         }],
     };
     let md = render_markdown(&budget);

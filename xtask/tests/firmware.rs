@@ -448,6 +448,25 @@ fn cortex_m7_runs_the_same_instructions() {
 }
 
 #[test]
+fn the_cortex_m33_build_gives_the_same_points_and_frame_statistics() {
+    let Some(m) = measured() else { return };
+    // Another target (Armv8-M Mainline), the same code: every number of the output is the
+    // M4F's; only the instruction counts and the code differ.
+    for image in Image::ALL {
+        let text = firmware::run(&m.layout, image, Board::An505).unwrap_or_else(|e| panic!("{e}"));
+        let m33 = firmware::parse_output(&text).unwrap_or_else(|e| panic!("{e}"));
+        let m4 = &m.get(image).run;
+        assert_eq!(m33.points, m4.points, "{image}: points on mps2-an505");
+        assert_eq!(
+            m33.detections, m4.detections,
+            "{image}: detections on mps2-an505"
+        );
+        assert_eq!(m33.stats, m4.stats, "{image}: statistics on mps2-an505");
+        assert!(m33.stages.get("total").is_some_and(|&n| n > 0), "{image}");
+    }
+}
+
+#[test]
 fn static_buffers_have_the_sizes_of_the_core_types() {
     use dbe_radar::presets::{coloradar as c, iwr6843 as i};
     let Some(m) = measured() else { return };
