@@ -200,12 +200,12 @@ pub enum CoreRunError {
         found: usize,
     },
     /// The core rejected the configuration.
-    #[error("invalid configuration for the {preset} preset: {source}")]
+    #[error("invalid configuration for the {preset} preset: {reason}")]
     Config {
         /// The preset.
         preset: Preset,
-        /// The core's reason.
-        source: ConfigError,
+        /// The core's reason (in the message, not a `source`: printed once).
+        reason: ConfigError,
     },
     /// The frame's sizes are not the runner's.
     #[error("frame is {} samples × {} loops × {} TX × {} RX with {} values, the runner expects {} × {} × {} × {} ({})",
@@ -401,7 +401,7 @@ impl<
             rx: sensor.rx.clone().try_into().map_err(|_| geometry_error)?,
             f_design_hz: sensor.f_design_hz,
         };
-        let config = |source| CoreRunError::Config { preset, source };
+        let config = |reason| CoreRunError::Config { preset, reason };
         let mut frontend = Box::new(Frontend::unconfigured());
         frontend
             .configure(sensor.waveform, geometry, params.range_window)

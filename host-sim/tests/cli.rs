@@ -615,6 +615,49 @@ fn a_ti_cfg_equivalent_to_the_calibration_gives_the_same_points() -> TestResult 
     Ok(())
 }
 
+/// Errors quote file names and contents with their control characters escaped (no terminal
+/// escape sequence reaches the user's terminal, the error stays one line), and a calibration
+/// the core refuses is named, its reason printed once.
+#[test]
+fn errors_escape_control_characters_and_name_the_refused_calibration() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let odd = dir.path().join("seq\u{1b}[31m\nred");
+    std::fs::create_dir(&odd)?;
+    let err = fails(&["process", s(&odd), "--out", s(&dir.path().join("o"))]);
+    assert!(
+        err.contains("seq\\u{1b}[31m\\nred") && !err.contains('\u{1b}'),
+        "{err:?}"
+    );
+    assert_eq!(err.trim_end().lines().count(), 1, "{err:?}");
+
+    // An antenna layout whose azimuth line is not uniform (TX1 moved from 4 to 5).
+    let seq = simulated(dir.path(), "moving_sensor", "1");
+    let antenna = seq.join("calib/single_chip/antenna_cfg.txt");
+    let text = std::fs::read_to_string(&antenna)?;
+    let moved: Vec<String> = text
+        .lines()
+        .map(|l| match l.split_whitespace().collect::<Vec<_>>()[..] {
+            ["tx", i, "4", el] => format!("tx {i} 5 {el}"),
+            _ => l.to_string(),
+        })
+        .collect();
+    assert_ne!(
+        moved.join("\n"),
+        text.trim_end(),
+        "no TX at azimuth 4 in {text}"
+    );
+    std::fs::write(&antenna, moved.join("\n") + "\n")?;
+    let out = dir.path().join("out");
+    let err = fails(&["process", s(&seq), "--out", s(&out)]);
+    assert!(
+        err.contains("calib") && err.contains("not uniformly spaced"),
+        "{err}"
+    );
+    assert_eq!(err.matches("not uniformly spaced").count(), 1, "{err}");
+    assert!(!out.exists());
+    Ok(())
+}
+
 /// A 2-TX radar (AWR1642 class: an 8-element line, no elevation row): a sequence simulated
 /// with its calibration and the same recording read with a TI `.cfg` and `--board
 /// awr1642boost` give the same points, all on the horizon, and the record says elevation was

@@ -314,6 +314,24 @@ fn antenna_index_out_of_range_is_rejected() {
 }
 
 #[test]
+fn antenna_position_beyond_any_array_is_rejected_against_its_own_file() {
+    // 1e39 does not fit an f32 (it became +inf and was reported against waveform_cfg.txt).
+    for (value, shown) in [("1e39", "1e39"), ("3000", "3000")] {
+        let Some((_dir, calib)) = edited_calib("antenna_cfg.txt", |t| {
+            t.replacen("tx 1 4 0", &format!("tx 1 {value} 0"), 1)
+        }) else {
+            return;
+        };
+        let e = expect_err(io::load_calib(&calib), "antenna position");
+        let text = e.to_string();
+        assert!(
+            text.contains("antenna_cfg.txt:") && text.contains(&format!("`tx 1 az` = {shown}")),
+            "{text}"
+        );
+    }
+}
+
+#[test]
 fn antenna_duplicate_index_is_rejected() {
     let Some((_d, calib)) = edited_calib("antenna_cfg.txt", |t| t.replace("tx 1 4 0", "tx 2 4 0"))
     else {

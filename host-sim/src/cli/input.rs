@@ -5,6 +5,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
+use host_sim::core_run::CoreRunner;
 use host_sim::frame::AdcFrame;
 use host_sim::io::ticfg::{load_ti_cfg, Board};
 use host_sim::io::{coloradar, dca1000, load_calib, Sequence};
@@ -103,6 +104,11 @@ impl Input {
                 ),
             },
         };
+        // The core's own checks (frame size, waveform, antenna geometry), before any frame
+        // is read, with the calibration that failed them named.
+        if let Err(e) = CoreRunner::new(&sensor, dbe_radar::Params::defaults(sensor.samples)) {
+            bail!("{calib_source}: {e}");
+        }
         let input = if path.is_dir() {
             Input::Sequence {
                 root: path.to_path_buf(),

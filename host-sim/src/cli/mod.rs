@@ -85,3 +85,29 @@ impl ParamArgs {
         Ok(p)
     }
 }
+
+/// `text` with every control character (ESC, BEL, CR, newline, …) written as its Rust escape
+/// (`\u{1b}`, `\n`): file names and file contents quoted in an error cannot recolour the
+/// terminal, move its cursor or split the one-line error.
+pub fn printable(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn control_characters_are_escaped() {
+        assert_eq!(
+            super::printable("a\u{1b}[31mb\u{7}\nc é"),
+            "a\\u{1b}[31mb\\u{7}\\nc é"
+        );
+    }
+}

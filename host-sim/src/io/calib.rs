@@ -338,9 +338,9 @@ pub fn parse_antenna_cfg(path: &Path, text: &str) -> Result<AntennaCfg, IoError>
                     ));
                 }
                 let i = index(path, line, key, tokens[1])?;
-                let az = number(path, line, &format!("{key} {i} az"), tokens[2])?;
-                let el = number(path, line, &format!("{key} {i} el"), tokens[3])?;
-                elems[usize::from(key == "tx")].push((line, i, az as f32, el as f32));
+                let az = position(path, line, &format!("{key} {i} az"), tokens[2])?;
+                let el = position(path, line, &format!("{key} {i} el"), tokens[3])?;
+                elems[usize::from(key == "tx")].push((line, i, az, el));
             }
             _ => {} // unknown key: ignored
         }
@@ -388,6 +388,27 @@ pub fn parse_antenna_cfg(path: &Path, text: &str) -> Result<AntennaCfg, IoError>
         rx,
         f_design_hz,
     })
+}
+
+/// Largest antenna coordinate accepted, half-wavelength units: a 5 m aperture at 77 GHz. Real
+/// single-chip layouts span < 20; beyond this a value is a unit or typing mistake (and past
+/// 3.4·10³⁸ it would not even be an `f32`).
+const MAX_POSITION: f64 = 2_560.0;
+
+/// An antenna coordinate (half-wavelength units), within ±[`MAX_POSITION`].
+fn position(path: &Path, line: usize, what: &str, token: &str) -> Result<f32, IoError> {
+    let v = number(path, line, what, token)?;
+    if v.abs() > MAX_POSITION {
+        return Err(IoError::syntax(
+            path,
+            line,
+            format!(
+                "`{what}` = {token}; expected half-wavelength units within ±{MAX_POSITION} \
+                 (single-chip arrays span a few)"
+            ),
+        ));
+    }
+    Ok(v as f32)
 }
 
 /// `F_design` in GHz → Hz. A plain decimal is scaled by appending `e9` (exact decimal
