@@ -7,7 +7,9 @@
 //!   renamed to `NAME` by [`StagedDir::commit`]. The target must not exist or be an empty
 //!   directory, both when staging starts and at commit; an existing non-empty target is an
 //!   [`IoError::OutputExists`] and is never merged into or replaced. Dropping an uncommitted
-//!   `StagedDir` (an error return or a panic) deletes the staging tree.
+//!   `StagedDir` (an error return or a panic) deletes the staging tree. An empty target whose
+//!   parent refuses a sibling (a read-only container mount point) is staged inside itself
+//!   ([`StagedDir::inside`]).
 //!
 //! A process killed by a signal or a power cut can leave a hidden temporary sibling behind; the
 //! target itself is never partial. The next write to the same target removes such leftovers
@@ -142,6 +144,8 @@ fn check_target_free(target: &Path) -> Result<(), IoError> {
 pub struct StagedDir {
     target: PathBuf,
     staging: PathBuf,
+    /// Staging inside the (empty) target instead of beside it: its parent is not writable.
+    inside: bool,
     committed: bool,
 }
 
@@ -152,10 +156,40 @@ impl StagedDir {
         ensure_parent(target)?;
         remove_stale_siblings(target, "partial");
         let staging = sibling(target, "partial")?;
+        match fs::create_dir(&staging) {
+            Ok(()) => Ok(Self {
+                target: target.to_path_buf(),
+                staging,
+                inside: false,
+                committed: false,
+            }),
+            // An empty target whose parent is read-only (a container's mount point): stage
+            // inside it.
+            Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied && target.is_dir() => {
+                Self::inside(target)
+            }
+            Err(e) => Err(IoError::os(&staging, "create directory", e)),
+        }
+    }
+
+    /// Stage inside the empty directory `target`, in a hidden `.partial-PID-N`, for a target
+    /// whose parent cannot take a sibling. [`Self::commit`] then moves the entries up one by
+    /// one: the target holds only the hidden staging folder until then, and a run killed
+    /// during the moves can leave it part-filled (the one weaker guarantee of this case).
+    pub fn inside(target: &Path) -> Result<Self, IoError> {
+        check_target_free(target)?;
+        let staging = sibling(&target.join("x"), "partial")?;
+        let staging = staging.with_file_name(
+            staging
+                .file_name()
+                .map(|n| n.to_string_lossy().replacen(".x.", ".", 1))
+                .unwrap_or_default(),
+        );
         fs::create_dir(&staging).map_err(|e| IoError::os(&staging, "create directory", e))?;
         Ok(Self {
             target: target.to_path_buf(),
             staging,
+            inside: true,
             committed: false,
         })
     }
@@ -173,6 +207,9 @@ impl StagedDir {
     /// Move the finished tree to the target. Fails (and deletes the staging tree) if the target
     /// has become non-empty meanwhile.
     pub fn commit(mut self) -> Result<(), IoError> {
+        if self.inside {
+            return self.commit_inside();
+        }
         check_target_free(&self.target)?;
         if self.target.is_dir() {
             // An empty directory: rename(2) would replace it on Linux but not everywhere.
@@ -186,6 +223,35 @@ impl StagedDir {
                 e,
             )
         })?;
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl StagedDir {
+    /// [`Self::commit`] of a tree staged inside its target: the target must hold nothing but
+    /// the staging folder; its entries move up, then it goes.
+    fn commit_inside(mut self) -> Result<(), IoError> {
+        let entries =
+            fs::read_dir(&self.target).map_err(|e| IoError::os(&self.target, "list", e))?;
+        for entry in entries {
+            let entry = entry.map_err(|e| IoError::os(&self.target, "list", e))?;
+            if entry.path() != self.staging {
+                return Err(IoError::OutputExists {
+                    path: self.target.clone(),
+                });
+            }
+        }
+        let staged =
+            fs::read_dir(&self.staging).map_err(|e| IoError::os(&self.staging, "list", e))?;
+        for entry in staged {
+            let entry = entry.map_err(|e| IoError::os(&self.staging, "list", e))?;
+            let to = self.target.join(entry.file_name());
+            fs::rename(entry.path(), &to).map_err(|e| {
+                IoError::os(&entry.path(), format!("rename to {}", to.display()), e)
+            })?;
+        }
+        fs::remove_dir(&self.staging).map_err(|e| IoError::os(&self.staging, "remove", e))?;
         self.committed = true;
         Ok(())
     }
@@ -212,6 +278,47 @@ pub(crate) fn write_plain(path: &Path, contents: &[u8]) -> Result<(), IoError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn staging_inside_an_empty_target_commits_or_leaves_it_empty() -> Result<(), IoError> {
+        // What `StagedDir::new` falls back to when the target's parent refuses a sibling
+        // (a read-only mount point; not reproducible here, where tests may run as root).
+        let tmp = tempfile::tempdir().map_err(|e| IoError::os(Path::new("tmp"), "create", e))?;
+        let target = tmp.path().join("mnt");
+        fs::create_dir(&target).map_err(|e| IoError::os(&target, "create", e))?;
+        {
+            let s = StagedDir::inside(&target)?;
+            assert_eq!(s.path().parent(), Some(target.as_path()));
+            write_plain(&s.path().join("a.txt"), b"a")?;
+        }
+        assert_eq!(fs::read_dir(&target).map(|d| d.count()).unwrap_or(99), 0);
+        let s = StagedDir::inside(&target)?;
+        create_dir(&s.path().join("sub"))?;
+        write_plain(&s.path().join("sub/b.txt"), b"b")?;
+        write_plain(&s.path().join("a.txt"), b"a")?;
+        s.commit()?;
+        let mut names: Vec<String> = fs::read_dir(&target)
+            .map_err(|e| IoError::os(&target, "list", e))?
+            .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+            .collect();
+        names.sort();
+        assert_eq!(names, ["a.txt", "sub"]);
+        assert_eq!(
+            fs::read(target.join("sub/b.txt")).ok().as_deref(),
+            Some(&b"b"[..])
+        );
+        // A non-empty target is refused, and something appearing meanwhile fails the commit.
+        assert!(matches!(
+            StagedDir::inside(&target),
+            Err(IoError::OutputExists { .. })
+        ));
+        let other = tmp.path().join("other");
+        fs::create_dir(&other).map_err(|e| IoError::os(&other, "create", e))?;
+        let s = StagedDir::inside(&other)?;
+        write_plain(&other.join("intruder"), b"x")?;
+        assert!(matches!(s.commit(), Err(IoError::OutputExists { .. })));
+        Ok(())
+    }
 
     #[test]
     fn staged_dir_commits_or_vanishes() -> Result<(), IoError> {
