@@ -202,10 +202,11 @@ fn angle_section(m: &mut String, e: &Evaluation) {
     }
     let _ = writeln!(m, "\n– = no detection at that SNR (see the detection rates below). Reading the table: at high SNR \
         both chains sit on their grid floors (0.216° azimuth; the DBE elevation grid 0.144°), far above the CRB; \
-        sub-grid refinement removes most of the azimuth floor. The elevation of both chains keeps a floor of about \
-        0.13–0.2° even with sub-grid refinement: TDM compensation uses the *integer* Doppler bin, so up to ±½ bin of \
-        slot phase remains, 2π·Δd·Δt/(K·TX) per slot; for the FFT chain's pairs (mean slot difference 1.5) that is \
-        σ_ν = 2π·1.5/(384·κ·√12) ≈ 0.0022, i.e. 0.13° of elevation.\n");
+        sub-grid refinement removes most of the azimuth floor and the DBE elevation floor. No slot-phase floor is \
+        left in elevation: TDM compensation rotates by the fractional Doppler (strongest bin plus its log-parabola \
+        offset); with the integer bin, up to ±½ bin of slot phase, 2π·Δd·Δt/(K·TX) per slot, would remain (for the \
+        FFT chain's pairs, mean slot difference 1.5, σ_ν = 2π·1.5/(384·κ·√12) ≈ 0.0022, 0.13° of elevation). The FFT \
+        chain's elevation (a phase difference) is continuous already, so its two elevation columns are equal.\n");
 }
 
 fn doppler_section(m: &mut String, e: &Evaluation) {
