@@ -547,6 +547,37 @@ fn every_process_run_leaves_a_record_and_quiet_prints_nothing() -> TestResult {
     Ok(())
 }
 
+/// The CSV points of frames `0..frames` of two `dbe process` outputs agree: the same bins;
+/// metres and m/s within the calibration's float32 rounding of the waveform (≤ 2⁻²³ relative)
+/// and the f32 output. Returns the pairs.
+fn same_csv_points(
+    a: &Path,
+    b: &Path,
+    frames: usize,
+) -> Result<
+    Vec<(host_sim::cloud::PointRecord, host_sim::cloud::PointRecord)>,
+    Box<dyn std::error::Error>,
+> {
+    let mut pairs = Vec::new();
+    for i in 0..frames {
+        let name = format!("csv/frame_{i}.csv");
+        let pa = host_sim::io::read_csv(&a.join(&name))?;
+        let pb = host_sim::io::read_csv(&b.join(&name))?;
+        assert_eq!(pa.len(), pb.len(), "frame {i}");
+        for (x, y) in pa.into_iter().zip(pb) {
+            assert_eq!(
+                (x.range_bin, x.azimuth_bin, x.elevation_bin, x.doppler_bin),
+                (y.range_bin, y.azimuth_bin, y.elevation_bin, y.doppler_bin)
+            );
+            for (u, v) in [(x.x, y.x), (x.y, y.y), (x.z, y.z), (x.doppler, y.doppler)] {
+                assert!((u - v).abs() < 1e-4, "frame {i}: {u} vs {v}");
+            }
+            pairs.push((x, y));
+        }
+    }
+    Ok(pairs)
+}
+
 #[test]
 fn a_ti_cfg_equivalent_to_the_calibration_gives_the_same_points() -> TestResult {
     let dir = tempfile::tempdir()?;
@@ -566,23 +597,7 @@ fn a_ti_cfg_equivalent_to_the_calibration_gives_the_same_points() -> TestResult 
         "--board",
         "awr1843boost",
     ]);
-    for i in 0..3 {
-        let name = format!("csv/frame_{i}.csv");
-        let pa = host_sim::io::read_csv(&a.join(&name))?;
-        let pb = host_sim::io::read_csv(&b.join(&name))?;
-        assert_eq!(pa.len(), pb.len(), "frame {i}");
-        for (x, y) in pa.iter().zip(&pb) {
-            // The same bins; metres and m/s within the calibration's float32 rounding of the
-            // waveform (≤ 2⁻²³ relative) and the f32 output.
-            assert_eq!(
-                (x.range_bin, x.azimuth_bin, x.elevation_bin, x.doppler_bin),
-                (y.range_bin, y.azimuth_bin, y.elevation_bin, y.doppler_bin)
-            );
-            for (u, v) in [(x.x, y.x), (x.y, y.y), (x.z, y.z), (x.doppler, y.doppler)] {
-                assert!((u - v).abs() < 1e-4, "frame {i}: {u} vs {v}");
-            }
-        }
-    }
+    same_csv_points(&a, &b, 3)?;
     // A .cfg needs its board; a board needs a .cfg; a non-.cfg file is not a calibration.
     let err = fails(&[
         "process",
@@ -699,25 +714,11 @@ fn a_two_tx_line_array_gives_azimuth_only_points_from_its_calibration_or_a_ti_cf
         "awr1642boost",
         "--quiet",
     ]);
-    let mut total = 0;
-    for i in 0..3 {
-        let name = format!("csv/frame_{i}.csv");
-        let pa = host_sim::io::read_csv(&a.join(&name))?;
-        let pb = host_sim::io::read_csv(&b.join(&name))?;
-        assert_eq!(pa.len(), pb.len(), "frame {i}");
-        total += pa.len();
-        for (x, y) in pa.iter().zip(&pb) {
-            assert_eq!(
-                (x.range_bin, x.azimuth_bin, x.elevation_bin, x.doppler_bin),
-                (y.range_bin, y.azimuth_bin, y.elevation_bin, y.doppler_bin)
-            );
-            assert!(x.z == 0.0 && y.z == 0.0, "frame {i}: {x:?}");
-            for (u, v) in [(x.x, y.x), (x.y, y.y), (x.doppler, y.doppler)] {
-                assert!((u - v).abs() < 1e-4, "frame {i}: {u} vs {v}");
-            }
-        }
+    let pairs = same_csv_points(&a, &b, 3)?;
+    for (x, y) in &pairs {
+        assert!(x.z == 0.0 && y.z == 0.0, "{x:?}");
     }
-    assert!(total >= 3, "{total} points in 3 frames");
+    assert!(pairs.len() >= 3, "{} points in 3 frames", pairs.len());
     for out in [&a, &b] {
         let run: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("run.json"))?)?;

@@ -664,45 +664,26 @@ fn core_images_table(s: &mut String, c: &CoreBudget, names: &[&str]) {
     );
     let _ = writeln!(s, "| {} | {} |", c.core, names.join(" | "));
     let _ = writeln!(s, "|---|{}", "---:|".repeat(names.len()));
-    type Cell = fn(&CoreImage) -> u64;
-    let stage = |img: &CoreImage, k: &str| img.instructions_per_stage.get(k).copied().unwrap_or(0);
-    let rows: [(&str, Cell); 6] = [
-        ("static RAM (bytes)", |i| i.static_ram_bytes),
-        ("stack peak (bytes)", |i| i.stack_peak_bytes),
-        ("flash without the test frame (bytes)", |i| i.flash_bytes),
-        ("setup (instructions, once)", |i| {
-            i.instructions_per_stage.get("setup").copied().unwrap_or(0)
-        }),
-        ("ingest: all K·TX chirps (instructions)", |i| {
-            i.instructions_per_stage.get("ingest").copied().unwrap_or(0)
-        }),
-        ("`process` (instructions)", |i| {
-            i.instructions_per_stage
-                .get("process")
-                .copied()
-                .unwrap_or(0)
-        }),
-    ];
-    for (label, cell) in rows {
+    let mut row = |label: &str, cell: &dyn Fn(&CoreImage) -> u64| {
         let cells: Vec<String> = names
             .iter()
             .map(|n| c.images.get(*n).map_or("–".into(), |i| thousands(cell(i))))
             .collect();
         let _ = writeln!(s, "| {label} | {} |", cells.join(" | "));
+    };
+    row("static RAM (bytes)", &|i| i.static_ram_bytes);
+    row("stack peak (bytes)", &|i| i.stack_peak_bytes);
+    row("flash without the test frame (bytes)", &|i| i.flash_bytes);
+    for (label, stage) in [
+        ("setup (instructions, once)", "setup"),
+        ("ingest: all K·TX chirps (instructions)", "ingest"),
+        ("`process` (instructions)", "process"),
+        ("**per frame** (instructions)", "total"),
+    ] {
+        row(label, &|i| {
+            i.instructions_per_stage.get(stage).copied().unwrap_or(0)
+        });
     }
-    let totals: Vec<String> = names
-        .iter()
-        .map(|n| {
-            c.images
-                .get(*n)
-                .map_or("–".into(), |i| thousands(stage(i, "total")))
-        })
-        .collect();
-    let _ = writeln!(
-        s,
-        "| **per frame** (instructions) | {} |",
-        totals.join(" | ")
-    );
 }
 
 /// `doc` with the text between the [`BLOCK_BEGIN`] and [`BLOCK_END`] lines replaced by

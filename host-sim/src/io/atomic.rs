@@ -178,13 +178,8 @@ impl StagedDir {
     /// during the moves can leave it part-filled (the one weaker guarantee of this case).
     pub fn inside(target: &Path) -> Result<Self, IoError> {
         check_target_free(target)?;
-        let staging = sibling(&target.join("x"), "partial")?;
-        let staging = staging.with_file_name(
-            staging
-                .file_name()
-                .map(|n| n.to_string_lossy().replacen(".x.", ".", 1))
-                .unwrap_or_default(),
-        );
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let staging = target.join(format!(".partial-{}-{n}", std::process::id()));
         fs::create_dir(&staging).map_err(|e| IoError::os(&staging, "create directory", e))?;
         Ok(Self {
             target: target.to_path_buf(),
