@@ -22,7 +22,7 @@ enum Command {
     Simulate(cli::simulate::SimulateArgs),
     /// Check the core (fed chirp by chirp) against the f64 reference, frame by frame.
     Validate(cli::validate::ValidateArgs),
-    /// Plot one frame: range–azimuth map and point cloud (top and side views).
+    /// Plot one frame: range–azimuth and range–Doppler maps, point cloud (top and side views).
     Plot(cli::plot::PlotArgs),
     /// Simulate the built-in scene, process, validate, measure accuracy and plot.
     Demo(cli::demo::DemoArgs),
@@ -51,7 +51,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", cli::printable(&format!("{e:#}")));
+            eprintln!("error: {}", cli::error_line(&e));
             ExitCode::FAILURE
         }
     }

@@ -86,6 +86,22 @@ impl ParamArgs {
     }
 }
 
+/// One line for an error and its causes, `outer: cause: …`, each cause once: an error whose
+/// message already quotes its source (`"{path}: {source}"`) is not followed by the source again.
+pub fn error_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.is_empty() {
+            line = text;
+        } else if !line.ends_with(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+    }
+    printable(&line)
+}
+
 /// `text` with every control character (ESC, BEL, CR, newline, …) written as its Rust escape
 /// (`\u{1b}`, `\n`): file names and file contents quoted in an error cannot recolour the
 /// terminal, move its cursor or split the one-line error.
@@ -103,6 +119,19 @@ pub fn printable(text: &str) -> String {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_quoted_source_is_printed_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");
+        let quoted = host_sim::sim::SimError::Io {
+            path: "a.toml".into(),
+            source: io,
+        };
+        let e = anyhow::Error::new(quoted).context("loading the scene");
+        assert_eq!(super::error_line(&e), "loading the scene: a.toml: gone");
+        let e = anyhow::anyhow!("inner").context("outer\n");
+        assert_eq!(super::error_line(&e), "outer\\n: inner");
+    }
+
     #[test]
     fn control_characters_are_escaped() {
         assert_eq!(
