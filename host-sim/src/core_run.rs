@@ -247,6 +247,17 @@ pub struct CoreOutput {
     /// CFAR detections on the range–azimuth map (empty for the FFT chain, whose detections
     /// live on the range–Doppler map).
     pub detections: Vec<Detection>,
+    /// Range–Doppler map of the FFT chain, `rd_map[range bin][d]`, linear `Σ_m |X_m[d]|²`, `d`
+    /// the natural FFT index (bin 0 = 0 m/s, `d ≥ K/2` negative); rows outside the processed
+    /// range window are zero (empty for the DBE chain, which has no such map).
+    pub rd_map: Vec<Vec<f32>>,
+}
+
+/// The maps and detections of one frame, as [`CoreOutput`] reports them.
+struct Inspected {
+    ra_map: Vec<Vec<f32>>,
+    detections: Vec<Detection>,
+    rd_map: Vec<Vec<f32>>,
 }
 
 /// What the host runner needs of a chain beyond [`dbe_radar::Chain`]: building it from the
@@ -269,7 +280,8 @@ trait HostChain<
     fn workspace() -> Box<Self::Workspace>;
     /// The range–azimuth map and its detections (DBE chain), or nothing (FFT chain, whose
     /// detections live on the range–Doppler map).
-    fn inspect(work: &Self::Workspace) -> (Vec<Vec<f32>>, Vec<Detection>);
+    /// The range–azimuth map, detections and range–Doppler map a [`CoreOutput`] reports.
+    fn inspect(work: &Self::Workspace) -> Inspected;
 }
 
 impl<
@@ -297,9 +309,12 @@ impl<
         Box::new(Workspace::new())
     }
 
-    fn inspect(work: &Self::Workspace) -> (Vec<Vec<f32>>, Vec<Detection>) {
-        let ra = work.range_azimuth().iter().map(|r| r.to_vec()).collect();
-        (ra, work.detections().to_vec())
+    fn inspect(work: &Self::Workspace) -> Inspected {
+        Inspected {
+            ra_map: work.range_azimuth().iter().map(|r| r.to_vec()).collect(),
+            detections: work.detections().to_vec(),
+            rd_map: Vec::new(),
+        }
     }
 }
 
@@ -328,8 +343,12 @@ impl<
         Box::new(FftWorkspace::new())
     }
 
-    fn inspect(_: &Self::Workspace) -> (Vec<Vec<f32>>, Vec<Detection>) {
-        (Vec::new(), Vec::new())
+    fn inspect(work: &Self::Workspace) -> Inspected {
+        Inspected {
+            ra_map: Vec::new(),
+            detections: Vec::new(),
+            rd_map: work.range_doppler().iter().map(|r| r.to_vec()).collect(),
+        }
     }
 }
 
@@ -476,12 +495,17 @@ impl<
             ingest: t_ingest,
             stages: [t_map, t_detect, t_points],
         };
-        let (ra_map, detections) = C::inspect(&self.work);
+        let Inspected {
+            ra_map,
+            detections,
+            rd_map,
+        } = C::inspect(&self.work);
         let out = CoreOutput {
             points: self.cloud.points().iter().map(PointRecord::from).collect(),
             stats: self.cloud.stats,
             ra_map,
             detections,
+            rd_map,
         };
         Ok((out, times))
     }
@@ -742,6 +766,13 @@ mod tests {
                 out.points
             );
             assert_eq!(out.ra_map.is_empty(), chain == Chain::Fft);
+            assert_eq!(out.rd_map.is_empty(), chain == Chain::Dbe);
+            if chain == Chain::Fft {
+                // The static target's energy is in Doppler bin 0 of its range bin.
+                let row = &out.rd_map[40];
+                let peak = (0..row.len()).max_by(|&a, &b| row[a].total_cmp(&row[b]));
+                assert_eq!((out.rd_map.len(), row.len(), peak), (128, 128, Some(0)));
+            }
         }
         Ok(())
     }

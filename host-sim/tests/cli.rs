@@ -133,11 +133,7 @@ fn simulate_process_validate_plot() -> TestResult {
 
     let plots = tmp.path().join("plots");
     ok(&["plot", s(&seq), "--frame", "2", "--out", s(&plots)]);
-    for f in [
-        "range_azimuth_2.png",
-        "points_top_2.png",
-        "points_side_2.png",
-    ] {
+    for f in ["maps_2.png", "points_top_2.png", "points_side_2.png"] {
         assert!(plots.join(f).is_file(), "{f}");
     }
     Ok(())

@@ -359,6 +359,7 @@ fn firmware_agrees_with_the_f64_reference() {
             stats: fw.stats,
             ra_map: host_core(&sensor, &frame).ra_map,
             detections: fw.detections.clone(),
+            rd_map: Vec::new(),
         };
         let agreement = harness::compare(&firmware_output, &reference, &params);
         assert!(

@@ -156,6 +156,18 @@ impl Input {
         }
     }
 
+    /// The recording's name for titles: the sequence folder's or the capture file's name.
+    pub fn name(&self) -> String {
+        let path = match self {
+            Input::Sequence { root, .. } => root,
+            Input::Dca1000 { path, .. } => path,
+        };
+        path.file_name().map_or_else(
+            || path.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        )
+    }
+
     /// The sequence folder, if the input is one (for ground truth lookup).
     pub fn sequence_dir(&self) -> Option<&Path> {
         match self {

@@ -1,12 +1,12 @@
-//! `dbe plot`: PNGs of one frame's range–azimuth map and point cloud.
+//! `dbe plot`: PNGs of one frame's range–azimuth and range–Doppler maps and point cloud.
 
 use std::fs;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::Args;
-use host_sim::core_run::CoreRunner;
-use host_sim::plot::{plot_points, plot_range_azimuth};
+use host_sim::core_run::{Chain, CoreRunner};
+use host_sim::plot::{plot_maps, plot_points, FrameInfo, Map, MapsInput};
 use host_sim::sim::FrameTruth;
 
 use super::input::Input;
@@ -56,7 +56,9 @@ pub fn truth_points(seq: Option<&Path>, i: usize) -> Result<Option<Vec<[f64; 3]>
     Ok(Some(pts))
 }
 
-/// Plot frame `i` of `input` into `out`; returns the files written.
+/// Plot frame `i` of `input` into `out`: `maps_<i>.png` (the DBE chain's range–azimuth map
+/// beside the FFT chain's range–Doppler map, the DBE points marked on both),
+/// `points_top_<i>.png` and `points_side_<i>.png`; returns the files written.
 pub fn plot_frame(
     input: &Input,
     sensor: &host_sim::sensor::SensorConfig,
@@ -65,24 +67,59 @@ pub fn plot_frame(
     out: &Path,
 ) -> Result<Vec<PathBuf>> {
     let frame = input.frame(i)?;
-    let mut runner = CoreRunner::new(sensor, *params)?;
-    let result = runner.process(&frame)?;
+    let dbe = CoreRunner::new(sensor, *params)?.process(&frame)?;
+    let fft = CoreRunner::with_chain(sensor, *params, Chain::Fft)?.process(&frame)?;
     fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let (a0, a1) = params.azimuth_span_deg;
-    let naz = result.ra_map.first().map_or(0, Vec::len);
+    let naz = dbe.ra_map.first().map_or(0, Vec::len);
     let az: Vec<f64> = (0..naz)
         .map(|k| f64::from(a0) + f64::from(a1 - a0) * k as f64 / (naz.max(2) - 1) as f64)
         .collect();
-    let ra = out.join(format!("range_azimuth_{i}.png"));
-    let range_bin_m = sensor.waveform.range_bin_m(sensor.samples);
-    plot_range_azimuth(&ra, &result.ra_map, range_bin_m, &az)?;
+    // The range–Doppler rows in natural FFT order, shifted so that velocity increases.
+    let k = sensor.loops;
+    let dv = sensor
+        .waveform
+        .doppler_bin_mps(sensor.samples, sensor.loops, sensor.num_tx);
+    let velocity: Vec<f64> = (0..k).map(|d| (d as f64 - (k / 2) as f64) * dv).collect();
+    let rd: Vec<Vec<f32>> = fft
+        .rd_map
+        .iter()
+        .map(|row| (0..k).map(|d| row[(d + k - k / 2) % k]).collect())
+        .collect();
+    let info = FrameInfo {
+        source: input.name(),
+        frame: i,
+        time_s: input.time(i),
+        chain: "DBE".into(),
+    };
+    let maps = out.join(format!("maps_{i}.png"));
+    plot_maps(
+        &maps,
+        &MapsInput {
+            info: &info,
+            range_bin_m: sensor.waveform.range_bin_m(sensor.samples),
+            processed_bins: (
+                usize::from(params.range_first),
+                usize::from(params.range_last),
+            ),
+            range_azimuth: Map {
+                rows: &dbe.ra_map,
+                columns: &az,
+            },
+            range_doppler: Map {
+                rows: &rd,
+                columns: &velocity,
+            },
+            points: &dbe.points,
+        },
+    )?;
     let (top, side) = (
         out.join(format!("points_top_{i}.png")),
         out.join(format!("points_side_{i}.png")),
     );
     let truth = truth_points(input.sequence_dir(), i)?;
-    plot_points(&top, &side, &result.points, truth.as_deref())?;
-    Ok(vec![ra, top, side])
+    plot_points(&top, &side, &info, &dbe.points, truth.as_deref())?;
+    Ok(vec![maps, top, side])
 }
 
 /// `dbe plot`.
