@@ -228,13 +228,43 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
             "{entry}"
         );
     }
+    let md = std::fs::read_to_string(dir.path().join("report.md"))?;
+    // The paper's protocol on sequence maps, beside the symmetric one on the same maps: one
+    // entry per scene and τ (per scene and resolution), each chain finite where it has a map.
+    let scenes = host_sim::eval::scenarios::SCENES.len();
+    let taus = host_sim::eval::maps::TAUS_M;
+    for (key, per_scene, x) in [
+        ("chamfer_paper", taus.len(), "tau"),
+        ("chamfer_map", e.config.resolutions_m.len(), "resolution"),
+    ] {
+        let rows = json[key]
+            .as_array()
+            .ok_or(format!("summary.json has no {key}"))?;
+        assert_eq!(rows.len(), scenes * per_scene, "{key}");
+        for r in rows {
+            for k in ["scene", x, "dbe", "fft"] {
+                assert!(r.get(k).is_some(), "{key}: {r}");
+            }
+            // Bounded by the metrics' definitions: CD(τ) ≤ 2τ; the symmetric distance of maps
+            // of the same scene is below the scene's size.
+            let bound = if key == "chamfer_paper" {
+                2.0 * r[x].as_f64().unwrap_or(0.0) + 1e-12
+            } else {
+                20.0
+            };
+            let v = r["fft"]
+                .as_f64()
+                .ok_or(format!("{key}: no FFT value in {r}"))?;
+            assert!((0.0..=bound).contains(&v), "{key}: {r}");
+        }
+    }
+    assert!(md.contains("## Chamfer distance on sequence maps"));
     // Four point-cloud goals (issue 4), four odometry goals (issue 9).
     assert_eq!(json["goals"].as_array().map(Vec::len), Some(8));
     assert_eq!(
         json["odometry"].as_array().map(Vec::len),
         Some(host_sim::eval::odometry::SEQUENCES.len() * 2)
     );
-    let md = std::fs::read_to_string(dir.path().join("report.md"))?;
     for h in [
         "## Definitions",
         "## Angle accuracy",

@@ -82,23 +82,29 @@ impl KdTree {
 
     /// Distance from `q` to the nearest point, or `None` for an empty tree.
     pub fn nearest_distance(&self, q: &P3) -> Option<f64> {
+        self.nearest(q).map(|(_, d)| d)
+    }
+
+    /// The nearest point to `q` and its distance, or `None` for an empty tree.
+    pub fn nearest(&self, q: &P3) -> Option<(P3, f64)> {
         if self.points.is_empty() {
             return None;
         }
-        let mut best = f64::INFINITY;
+        let mut best = (f64::INFINITY, 0);
         self.search(0, self.points.len(), q, &mut best);
-        Some(best.sqrt())
+        Some((self.points[best.1], best.0.sqrt()))
     }
 
-    fn search(&self, lo: usize, hi: usize, q: &P3, best: &mut f64) {
+    /// Search `lo..hi` for `q`; `best` is (squared distance, index) of the nearest so far.
+    fn search(&self, lo: usize, hi: usize, q: &P3, best: &mut (f64, usize)) {
         if lo >= hi {
             return;
         }
         let mid = lo + (hi - lo) / 2;
         let p = &self.points[mid];
         let d2 = dist2(p, q);
-        if d2 < *best {
-            *best = d2;
+        if d2 < best.0 {
+            *best = (d2, mid);
         }
         let a = usize::from(self.axis[mid]);
         let diff = q[a] - p[a];
@@ -108,7 +114,7 @@ impl KdTree {
             ((mid + 1, hi), (lo, mid))
         };
         self.search(near.0, near.1, q, best);
-        if diff * diff < *best {
+        if diff * diff < best.0 {
             self.search(far.0, far.1, q, best);
         }
     }

@@ -41,6 +41,7 @@ pub mod crb;
 pub mod csv;
 pub mod figures;
 pub mod goals;
+pub mod maps;
 pub mod odometry;
 pub mod report;
 pub mod scenarios;

@@ -600,6 +600,9 @@ pub struct SceneFrameMetrics {
     pub chamfer: Vec<Option<super::chamfer::Chamfer>>,
     /// Per visible point target (scene object name): errors of the matched point, if any.
     pub targets: Vec<(String, Option<Errors>)>,
+    /// The points in the world frame (the sensor's true pose at the frame start), for the
+    /// sequence maps of [`super::maps`].
+    pub cloud_world: Vec<P3>,
 }
 
 /// One scene frame.
@@ -611,6 +614,8 @@ pub struct SceneFrame {
     pub index: usize,
     /// Truth points (all visible surface samples and point targets).
     pub truth_points: usize,
+    /// Those truth points in the world frame (as [`SceneFrameMetrics::cloud_world`]).
+    pub truth_world: Vec<P3>,
     /// Per variant, `None` when not run.
     pub metrics: Vec<Option<SceneFrameMetrics>>,
 }
@@ -659,6 +664,7 @@ pub fn run_scenes(
             }
         }
         let full_tree = KdTree::new(&truth);
+        let to_world = world_transform(&frame.truth.sensor);
         let refs: Vec<(Vec<P3>, KdTree)> = resolutions
             .iter()
             .map(|&r| {
@@ -705,13 +711,27 @@ pub fn run_scenes(
                 false_points,
                 chamfer,
                 targets,
+                cloud_world: cloud.iter().map(&to_world).collect(),
             });
         }
         Ok(SceneFrame {
             scene: name,
             index,
             truth_points: truth.len(),
+            truth_world: truth.iter().map(&to_world).collect(),
             metrics,
         })
     })
+}
+
+/// The map `p ↦ R·p + t` from the sensor frame into the world frame for a sensor `pose`
+/// (`orientation` = body → world quaternion `[qx, qy, qz, qw]`).
+pub fn world_transform(pose: &crate::sim::SensorPose) -> impl Fn(&P3) -> P3 {
+    let [qx, qy, qz, qw] = pose.orientation;
+    let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(qw, qx, qy, qz));
+    let t = nalgebra::Vector3::from(pose.position);
+    move |p: &P3| {
+        let w = q * nalgebra::Vector3::from(*p) + t;
+        [w.x, w.y, w.z]
+    }
 }

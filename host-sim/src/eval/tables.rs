@@ -238,6 +238,12 @@ pub struct Evaluation {
     pub noise: Vec<NoiseRow>,
     /// Chamfer distance, all variants.
     pub chamfer_all: Vec<ChamferRow>,
+    /// The paper's Chamfer protocol on each scene's accumulated map ([`super::maps`]).
+    pub chamfer_paper: Vec<super::maps::PaperChamferRow>,
+    /// The symmetric mean Chamfer distance on the same maps.
+    pub chamfer_map: Vec<super::maps::MapChamferRow>,
+    /// Sizes of those maps and the ICP correction.
+    pub map_sizes: Vec<super::maps::MapSize>,
     /// Scenes: detection, false points, point-target accuracy.
     pub scenes: Vec<SceneRow>,
     /// CRB: closed form vs exact.
@@ -308,6 +314,18 @@ impl Evaluation {
         let resolution = resolution_rows(&variants, pairs);
         let noise = noise_rows(&variants, noise);
         let chamfer_all = chamfer_rows(config, &variants, scenes);
+        let index = |name: &str| {
+            variants
+                .iter()
+                .position(|v| v == name)
+                .ok_or_else(|| EvalError::Setup(format!("no variant {name} in the bench")))
+        };
+        let (chamfer_paper, chamfer_map, map_sizes) = super::maps::map_rows(
+            scenes,
+            index(names::DBE)?,
+            index(names::FFT)?,
+            &config.resolutions_m,
+        );
         let scene_rows = scene_rows(&variants, scenes);
         let chamfer = config
             .resolutions_m
@@ -362,6 +380,9 @@ impl Evaluation {
             resolution,
             noise,
             chamfer_all,
+            chamfer_paper,
+            chamfer_map,
+            map_sizes,
             scenes: scene_rows,
             crb_check,
             defaults,
