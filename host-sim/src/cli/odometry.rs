@@ -53,30 +53,33 @@ fn plot(dir: &Path, name: &str, est: &[StampedPose], gt: &[StampedPose]) -> Resu
     let e: Vec<_> = e.iter().map(|p| al.apply(p)).collect();
     let times: Vec<f64> = pairs.iter().map(|(_, g)| g.time_s).collect();
     // One chart of truth (dashed black) and estimate (blue), each point `xy(index, position)`.
-    let chart = |title: String, x_label: &str, y_label: &str, xy: &Coordinates<'_>| {
-        let line = |label: &str, pts: &[Vector3<f64>], colour: [u8; 3], dashed: bool| Series {
-            label: label.into(),
-            points: pts.iter().enumerate().map(|(i, p)| xy(i, p)).collect(),
-            colour,
-            dashed,
+    let chart =
+        |title: String, x_label: &str, y_label: &str, equal_aspect: bool, xy: &Coordinates<'_>| {
+            let line = |label: &str, pts: &[Vector3<f64>], colour: [u8; 3], dashed: bool| Series {
+                label: label.into(),
+                points: pts.iter().enumerate().map(|(i, p)| xy(i, p)).collect(),
+                colour,
+                dashed,
+            };
+            Chart {
+                title,
+                x_label: x_label.into(),
+                y_label: y_label.into(),
+                log_x: false,
+                log_y: false,
+                y_range: None,
+                equal_aspect,
+                series: vec![
+                    line("ground truth", &g, [0, 0, 0], true),
+                    line("odometry", &e, [0, 114, 178], false),
+                ],
+            }
         };
-        Chart {
-            title,
-            x_label: x_label.into(),
-            y_label: y_label.into(),
-            log_x: false,
-            log_y: false,
-            y_range: None,
-            series: vec![
-                line("ground truth", &g, [0, 0, 0], true),
-                line("odometry", &e, [0, 114, 178], false),
-            ],
-        }
-    };
     let top = chart(
         format!("{name}: top view (estimate aligned by position and yaw)"),
         "x (m)",
         "y (m)",
+        true,
         &|_, p| (p.x, p.y),
     );
     render(&top, &dir.join("trajectory_top.png"))?;
@@ -84,6 +87,7 @@ fn plot(dir: &Path, name: &str, est: &[StampedPose], gt: &[StampedPose]) -> Resu
         format!("{name}: height over time"),
         "time (s)",
         "z (m)",
+        false,
         &|i, p| (times[i], p.z),
     );
     render(&side, &dir.join("trajectory_side.png"))?;

@@ -60,6 +60,9 @@ pub struct Chart {
     pub log_y: bool,
     /// Fixed y range; `None` fits the data.
     pub y_range: Option<(f64, f64)>,
+    /// Equal units per pixel on both axes (linear axes only; a top view in metres): the
+    /// fitted ranges grow about their centres until they do.
+    pub equal_aspect: bool,
     /// The curves.
     pub series: Vec<Series>,
 }
@@ -191,6 +194,23 @@ fn marked(s: &Series) -> bool {
     !s.dashed && s.points.len() <= MAX_MARKED_POINTS
 }
 
+/// Margin around the plot and the sizes of its label areas, pixels.
+const PLOT_MARGIN: u32 = 14;
+const X_LABELS: u32 = 56;
+const Y_LABELS: u32 = 84;
+
+/// `x` and `y` grown about their centres to equal units per pixel on a data area of
+/// `(w, h)` pixels.
+fn equal_units(x: (f64, f64), y: (f64, f64), (w, h): (u32, u32)) -> ((f64, f64), (f64, f64)) {
+    let per_px = ((x.1 - x.0) / f64::from(w)).max((y.1 - y.0) / f64::from(h));
+    let grow = |(lo, hi): (f64, f64), px: u32| {
+        let half = per_px * f64::from(px) / 2.0;
+        let mid = (lo + hi) / 2.0;
+        (mid - half, mid + half)
+    };
+    (grow(x, w), grow(y, h))
+}
+
 /// The plot itself on `area`: mesh, axis titles, every series (lines and markers).
 fn draw_plot<X, Y>(area: &Area<'_>, chart: &Chart, x: X, y: Y) -> Drawn<()>
 where
@@ -200,9 +220,9 @@ where
     Y::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
     let mut c = ChartBuilder::on(area)
-        .margin(14)
-        .x_label_area_size(56)
-        .y_label_area_size(84)
+        .margin(PLOT_MARGIN)
+        .x_label_area_size(X_LABELS)
+        .y_label_area_size(Y_LABELS)
         .build_cartesian_2d(x, y)?;
     c.configure_mesh()
         .light_line_style(RGBColor(240, 240, 240))
@@ -253,7 +273,9 @@ fn draw_legend(area: &Area<'_>, chart: &Chart) -> Drawn<()> {
                 vec![(8, y), (44, y)],
                 col.stroke_width(2),
             ))?;
-            markers(area, std::iter::once((26, y)), k, col)?;
+            if marked(s) {
+                markers(area, std::iter::once((26, y)), k, col)?;
+            }
         }
         area.draw(&Text::new(s.label.clone(), (54, y - 9), font(16)))?;
     }
@@ -274,13 +296,24 @@ pub fn render(chart: &Chart, path: &Path) -> Result<(), IoError> {
             .iter()
             .flat_map(|s| s.points.iter().map(|p| p.1))
     };
-    let (x0, x1) = fit(xs(), chart.log_x, None, false);
-    let (y0, y1) = fit(ys(), chart.log_y, chart.y_range, true);
-    let (xr, yr): (Range<f64>, Range<f64>) = (x0..x1, y0..y1);
+    let x = fit(xs(), chart.log_x, None, false);
+    let y = fit(ys(), chart.log_y, chart.y_range, true);
     render_png(path, SIZE, |root| {
         root.fill(&WHITE)?;
         let root = titled(root, &chart.title)?;
         let (plot, legend) = root.split_horizontally(SIZE.0 - LEGEND_W);
+        let ((x0, x1), (y0, y1)) = if chart.equal_aspect && !chart.log_x && !chart.log_y {
+            // The data area: the plot's area less draw_plot's margins and label areas.
+            let (w, h) = plot.dim_in_pixel();
+            let data = (
+                w.saturating_sub(2 * PLOT_MARGIN + Y_LABELS).max(1),
+                h.saturating_sub(2 * PLOT_MARGIN + X_LABELS).max(1),
+            );
+            equal_units(x, y, data)
+        } else {
+            (x, y)
+        };
+        let (xr, yr): (Range<f64>, Range<f64>) = (x0..x1, y0..y1);
         let log = |r: Range<f64>| {
             let (bold, light) = log_ticks(r.start, r.end);
             r.log_scale().with_key_points(bold).with_light_points(light)
@@ -335,6 +368,7 @@ mod tests {
             log_x: false,
             log_y: true,
             y_range: None,
+            equal_aspect: false,
             series: vec![
                 Series {
                     label: "dbe".into(),
@@ -371,6 +405,13 @@ mod tests {
             assert!(count(s.colour, true) > 10, "{} legend", s.label);
         }
         Ok(())
+    }
+
+    #[test]
+    fn equal_units_grow_the_short_axis() {
+        let (x, y) = equal_units((0.0, 12.0), (0.0, 3.0), (600, 400));
+        assert_eq!(x, (0.0, 12.0));
+        assert!((y.1 - y.0 - 8.0).abs() < 1e-12 && (y.0 + y.1 - 3.0).abs() < 1e-12);
     }
 
     #[test]

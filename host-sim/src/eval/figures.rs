@@ -97,6 +97,7 @@ pub(super) fn charts(e: &Evaluation) -> Vec<(String, Chart)> {
                 log_x: false,
                 log_y: true,
                 y_range: None,
+                equal_aspect: false,
                 series: s,
             },
         ));
@@ -111,6 +112,7 @@ pub(super) fn charts(e: &Evaluation) -> Vec<(String, Chart)> {
             log_x: false,
             log_y: false,
             y_range: Some((0.0, 1.0)),
+            equal_aspect: false,
             series: det
                 .iter()
                 .enumerate()
@@ -152,6 +154,7 @@ pub(super) fn charts(e: &Evaluation) -> Vec<(String, Chart)> {
             log_x: false,
             log_y: false,
             y_range: Some((0.0, 1.0)),
+            equal_aspect: false,
             series: res,
         },
     ));
@@ -178,6 +181,7 @@ pub(super) fn charts(e: &Evaluation) -> Vec<(String, Chart)> {
                 log_x: true,
                 log_y: false,
                 y_range: None,
+                equal_aspect: false,
                 series: s,
             },
         ));
