@@ -142,20 +142,19 @@ pub struct Axes {
 }
 
 impl Axes {
-    /// The axes of a `plotters` chart whose coordinates span `x_range` × `y_range`.
+    /// The axes of a `plotters` chart: its data area and coordinate ranges.
     fn of<DB: DrawingBackend>(
         chart: &ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
-        x_range: (f64, f64),
-        y_range: (f64, f64),
     ) -> Self {
         let (xs, ys) = chart.plotting_area().get_pixel_range();
+        let (x_range, y_range) = (chart.x_range(), chart.y_range());
         Self {
             left: xs.start.max(0) as u32,
             top: ys.start.max(0) as u32,
             width: (xs.end - xs.start).max(1) as u32,
             height: (ys.end - ys.start).max(1) as u32,
-            x_range,
-            y_range,
+            x_range: (x_range.start, x_range.end),
+            y_range: (y_range.start, y_range.end),
         }
     }
 
@@ -193,8 +192,18 @@ pub fn doppler_colour(v: f64, scale: f64) -> [u8; 3] {
     [c.0, c.1, c.2]
 }
 
-fn rgb(c: [u8; 3]) -> RGBColor {
+/// A `plotters` colour from RGB bytes.
+pub(crate) fn rgb(c: [u8; 3]) -> RGBColor {
     RGBColor(c[0], c[1], c[2])
+}
+
+/// Size of a chart's data area on an area of `dim` pixels: what is left after a `margin` on
+/// every side and the x- and y-label areas.
+pub(crate) fn data_area(dim: (u32, u32), margin: u32, x_labels: u32, y_labels: u32) -> (u32, u32) {
+    (
+        dim.0.saturating_sub(2 * margin + y_labels).max(1),
+        dim.1.saturating_sub(2 * margin + x_labels).max(1),
+    )
 }
 
 /// What one frame's title names.
@@ -365,7 +374,7 @@ fn heatmap_panel(
         .y_label_formatter(&|v| tick_label(*v))
         .draw()?;
     // Label the near-range band when it is tall enough to hold a line of text.
-    let axes = Axes::of(&chart, x, y);
+    let axes = Axes::of(&chart);
     let band_px = processed.0 as f64 * range_bin_m / (y.1 - y.0) * f64::from(axes.height);
     if processed.0 > 0 && band_px >= 18.0 {
         let mid = (processed.0 as f64 / 2.0 - 0.5) * range_bin_m;
@@ -429,7 +438,7 @@ fn colour_bar(
             t => t,
         })
         .draw()?;
-    Ok(Axes::of(&chart, (0.0, 1.0), (lo, hi)))
+    Ok(Axes::of(&chart))
 }
 
 /// Range of a point, m.
@@ -567,13 +576,23 @@ fn equal_aspect(xs: &[f64], ys: &[f64], w: u32, h: u32) -> ((f64, f64), (f64, f6
     let (y0, y1) = span(ys);
     // Margin: 8 % of the larger span, at least 0.5 m.
     let pad = (0.08 * (x1 - x0).max(y1 - y0)).max(0.5);
-    let (x0, x1, y0, y1) = (x0 - pad, x1 + pad, y0 - pad, y1 + pad);
-    let mpp = ((x1 - x0) / f64::from(w)).max((y1 - y0) / f64::from(h));
-    let grow = |lo: f64, hi: f64, px: u32| {
-        let extra = mpp * f64::from(px) - (hi - lo);
-        (lo - extra / 2.0, hi + extra / 2.0)
+    equal_units((x0 - pad, x1 + pad), (y0 - pad, y1 + pad), (w, h))
+}
+
+/// `x` and `y` grown about their centres to equal units per pixel on a data area of
+/// `(w, h)` pixels.
+pub(crate) fn equal_units(
+    x: (f64, f64),
+    y: (f64, f64),
+    (w, h): (u32, u32),
+) -> ((f64, f64), (f64, f64)) {
+    let per_px = ((x.1 - x.0) / f64::from(w)).max((y.1 - y.0) / f64::from(h));
+    let grow = |(lo, hi): (f64, f64), px: u32| {
+        let half = per_px * f64::from(px) / 2.0;
+        let mid = (lo + hi) / 2.0;
+        (mid - half, mid + half)
     };
-    (grow(x0, x1, w), grow(y0, y1, h))
+    (grow(x, w), grow(y, h))
 }
 
 /// `(min, max)` of `v` and 0 (the radar).
@@ -617,12 +636,13 @@ fn draw_view(
         root.fill(&WHITE)?;
         let root = titled(root, title)?;
         let (area, bar) = root.split_horizontally(size.0 - VIEW_BAR);
-        // The data area is what is left of the panel after margins and label areas.
-        let (w, h) = area.dim_in_pixel();
-        let (x, y) = ranges(
-            w.saturating_sub(2 * VIEW_MARGIN + VIEW_Y_LABELS).max(1),
-            h.saturating_sub(2 * VIEW_MARGIN + VIEW_X_LABELS).max(1),
+        let (w, h) = data_area(
+            area.dim_in_pixel(),
+            VIEW_MARGIN,
+            VIEW_X_LABELS,
+            VIEW_Y_LABELS,
         );
+        let (x, y) = ranges(w, h);
         let mut chart = ChartBuilder::on(&area)
             .margin(VIEW_MARGIN)
             .x_label_area_size(VIEW_X_LABELS)
@@ -675,7 +695,7 @@ fn draw_view(
             .border_style(BLACK)
             .label_font(font(16))
             .draw()?;
-        let axes = Axes::of(&chart, x, y);
+        let axes = Axes::of(&chart);
         let top = axes.top - root.get_base_pixel().1.max(0) as u32;
         colour_bar(
             &bar,

@@ -13,7 +13,7 @@ use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
 use plotters::prelude::*;
 
 use crate::io::IoError;
-use crate::plot::{font, render_png, tick_label, titled, Area, Drawn};
+use crate::plot::{data_area, equal_units, font, render_png, rgb, tick_label, titled, Area, Drawn};
 
 /// Image size, pixels.
 pub const SIZE: (u32, u32) = (1040, 600);
@@ -156,10 +156,6 @@ fn segments(s: &Series, log_x: bool, log_y: bool) -> Vec<Vec<(f64, f64)>> {
     out
 }
 
-fn colour(c: [u8; 3]) -> RGBColor {
-    RGBColor(c[0], c[1], c[2])
-}
-
 /// Draw marker shape `k % 4` (circle, triangle, square, cross) at each of `at` on `area`, a
 /// drawing area or a chart's plotting area.
 fn markers<DB, CT>(
@@ -199,18 +195,6 @@ const PLOT_MARGIN: u32 = 14;
 const X_LABELS: u32 = 56;
 const Y_LABELS: u32 = 84;
 
-/// `x` and `y` grown about their centres to equal units per pixel on a data area of
-/// `(w, h)` pixels.
-fn equal_units(x: (f64, f64), y: (f64, f64), (w, h): (u32, u32)) -> ((f64, f64), (f64, f64)) {
-    let per_px = ((x.1 - x.0) / f64::from(w)).max((y.1 - y.0) / f64::from(h));
-    let grow = |(lo, hi): (f64, f64), px: u32| {
-        let half = per_px * f64::from(px) / 2.0;
-        let mid = (lo + hi) / 2.0;
-        (mid - half, mid + half)
-    };
-    (grow(x, w), grow(y, h))
-}
-
 /// The plot itself on `area`: mesh, axis titles, every series (lines and markers).
 fn draw_plot<X, Y>(area: &Area<'_>, chart: &Chart, x: X, y: Y) -> Drawn<()>
 where
@@ -235,7 +219,7 @@ where
         .y_label_formatter(&|v| tick_label(*v))
         .draw()?;
     for (k, s) in chart.series.iter().enumerate() {
-        let col = colour(s.colour);
+        let col = rgb(s.colour);
         for run in segments(s, chart.log_x, chart.log_y) {
             if s.dashed {
                 c.draw_series(DashedLineSeries::new(
@@ -260,7 +244,7 @@ where
 fn draw_legend(area: &Area<'_>, chart: &Chart) -> Drawn<()> {
     for (k, s) in chart.series.iter().enumerate() {
         let y = 40 + 30 * k as i32;
-        let col = colour(s.colour);
+        let col = rgb(s.colour);
         if s.dashed {
             for x0 in (8..44).step_by(12) {
                 area.draw(&PathElement::new(
@@ -303,12 +287,7 @@ pub fn render(chart: &Chart, path: &Path) -> Result<(), IoError> {
         let root = titled(root, &chart.title)?;
         let (plot, legend) = root.split_horizontally(SIZE.0 - LEGEND_W);
         let ((x0, x1), (y0, y1)) = if chart.equal_aspect && !chart.log_x && !chart.log_y {
-            // The data area: the plot's area less draw_plot's margins and label areas.
-            let (w, h) = plot.dim_in_pixel();
-            let data = (
-                w.saturating_sub(2 * PLOT_MARGIN + Y_LABELS).max(1),
-                h.saturating_sub(2 * PLOT_MARGIN + X_LABELS).max(1),
-            );
+            let data = data_area(plot.dim_in_pixel(), PLOT_MARGIN, X_LABELS, Y_LABELS);
             equal_units(x, y, data)
         } else {
             (x, y)

@@ -315,10 +315,9 @@ impl Evaluation {
         let noise = noise_rows(&variants, noise);
         let chamfer_all = chamfer_rows(config, &variants, scenes);
         let index = |name: &str| {
-            variants
-                .iter()
-                .position(|v| v == name)
-                .ok_or_else(|| EvalError::Setup(format!("no variant {name} in the bench")))
+            bench
+                .index(name)
+                .ok_or_else(|| EvalError::Setup(format!("variant {name} missing")))
         };
         let (chamfer_paper, chamfer_map, map_sizes) = super::maps::map_rows(
             scenes,
