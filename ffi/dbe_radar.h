@@ -394,6 +394,11 @@ typedef struct {
    * Spatial smoothing of the azimuth covariance over two sub-lines (off by default).
    */
   uint8_t spatial_smoothing;
+  /**
+   * Doppler agreement, bins: a point whose own Capon beam peaks farther than this from its
+   * detection's azimuth-beam Doppler is dropped (0: off, the paper's chain).
+   */
+  float doppler_agreement_bins;
 } dbe_params_t;
 
 /**

@@ -321,6 +321,8 @@ pub enum Param {
     CoherentDoppler,
     /// `Params::doppler_test_db`.
     DopplerTest,
+    /// `Params::doppler_agreement_bins`.
+    DopplerAgreement,
 }
 
 impl Param {
@@ -349,6 +351,7 @@ impl Param {
             Param::EgoVelocity => "ego-velocity parameters",
             Param::CoherentDoppler => "coherent Doppler window (bins)",
             Param::DopplerTest => "Doppler test threshold (dB)",
+            Param::DopplerAgreement => "Doppler agreement window (bins)",
         }
     }
 }

@@ -66,7 +66,8 @@ pub struct FrameStats {
     pub point_overflow: u32,
     /// Range bins skipped because their covariance was not positive definite.
     pub skipped_range_bins: u32,
-    /// Detections that gave no point (no interior elevation peak, or every direction invalid).
+    /// Detections that gave no point (no interior elevation peak, every direction invalid, or
+    /// no direction whose Doppler agrees with the detection's, `Params::doppler_agreement_bins`).
     pub detections_without_point: u32,
     /// Detections whose azimuth beam failed the Doppler test (DBE chain,
     /// `Params::doppler_test_db`): no slow-time peak above the beam's noise.

@@ -329,13 +329,18 @@ fn the_papers_chain_is_the_defaults_without_the_additions() {
     let (paper, d) = (Params::paper(p::SAMPLES), Params::defaults(p::SAMPLES));
     assert!(!paper.tdm_compensation && !paper.spatial_smoothing);
     assert_eq!(
-        (paper.coherent_doppler_bins, paper.doppler_test_db),
-        (0.0, 0.0)
+        (
+            paper.coherent_doppler_bins,
+            paper.doppler_test_db,
+            paper.doppler_agreement_bins
+        ),
+        (0.0, 0.0, 0.0)
     );
     let restored = Params {
         tdm_compensation: d.tdm_compensation,
         coherent_doppler_bins: d.coherent_doppler_bins,
         doppler_test_db: d.doppler_test_db,
+        doppler_agreement_bins: d.doppler_agreement_bins,
         ..paper
     };
     assert_eq!(restored, d);

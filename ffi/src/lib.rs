@@ -253,6 +253,9 @@ pub struct dbe_params_t {
     pub coherent_doppler_bins: f32,
     /// Spatial smoothing of the azimuth covariance over two sub-lines (off by default).
     pub spatial_smoothing: u8,
+    /// Doppler agreement, bins: a point whose own Capon beam peaks farther than this from its
+    /// detection's azimuth-beam Doppler is dropped (0: off, the paper's chain).
+    pub doppler_agreement_bins: f32,
 }
 
 /// Everything `dbe_init` configures.
@@ -550,6 +553,7 @@ fn param_name(p: dbe_radar::config::Param) -> &'static [u8] {
         CfarWindow => b"params.cfar_guard/train\0",
         CoherentDoppler => b"params.coherent_doppler_bins\0",
         DopplerTest => b"params.doppler_test_db\0",
+        DopplerAgreement => b"params.doppler_agreement_bins\0",
         _ => b"params\0",
     }
 }
@@ -654,6 +658,7 @@ fn params_c(p: &Params) -> dbe_params_t {
         doppler_test_db: p.doppler_test_db,
         coherent_doppler_bins: p.coherent_doppler_bins,
         spatial_smoothing: u8::from(p.spatial_smoothing),
+        doppler_agreement_bins: p.doppler_agreement_bins,
     }
 }
 
@@ -692,6 +697,7 @@ fn params_core(
     p.coherent_doppler_bins = c.coherent_doppler_bins;
     p.doppler_test_db = c.doppler_test_db;
     p.spatial_smoothing = c.spatial_smoothing != 0;
+    p.doppler_agreement_bins = c.doppler_agreement_bins;
     Ok(p)
 }
 

@@ -44,10 +44,15 @@
 //!   `exp(−j·4π·v·slot_m·Tc/λ)` (the covariance becomes `D·R·Dᴴ`); the azimuth bin then
 //!   climbs the compensated azimuth spectrum uphill, at most `tdm_azimuth_search` bins (left
 //!   when `left > here` and `left ≥ right`, else right when `right > here`).
-//! - **Doppler test (beyond the spec, `Params::doppler_test_db` > 0).** The azimuth beam of
-//!   the TDM step (uncompensated covariance, the detection's bin) is windowed and transformed;
-//!   when its strongest power is below `10^(dB/10)` times the median power (the ⌊K/2⌋-th
-//!   smallest, 0-based; a zero median passes) the detection gives no point and is counted.
+//! - **Doppler test (beyond the spec, `Params::doppler_test_db` > 0).** The azimuth Capon beam
+//!   after TDM compensation by the beam Doppler and the climb (with compensation off: the
+//!   uncompensated beam at the detection's bin; a compensated covariance that is not positive
+//!   definite passes) is windowed and transformed; when its strongest power is below
+//!   `10^(dB/10)` times the median power (the ⌊K/2⌋-th smallest, 0-based; a zero median
+//!   passes) the detection gives no point and is counted.
+//! - **Doppler agreement (beyond the spec, `Params::doppler_agreement_bins` > 0).** A point
+//!   whose Doppler (strongest bin plus its offset, stage 4) lies farther than the window
+//!   (circular distance, bins) from its detection's beam Doppler is dropped.
 //! - **Coherent targets (beyond the spec, `Params::coherent_doppler_bins`).** The TDM step's
 //!   beam Doppler is measured for every detection first; a detection whose beam Doppler lies
 //!   within the window (circular distance, bins) of another detection's in the same run of
@@ -1073,6 +1078,7 @@ pub fn process_frame_with(
     // The Doppler of every detection's azimuth beam (TDM compensation and the coherence test).
     let need_doppler = params.tdm_compensation
         || params.coherent_doppler_bins > 0.0
+        || params.doppler_agreement_bins > 0.0
         || params.doppler_test_db > 0.0;
     let mut margins = vec![Margin::new(); found.len()];
     let beams: Vec<Option<BeamDoppler>> = found
@@ -1221,7 +1227,10 @@ fn beamform(w: &DVector<Complex64>, rot: &[Complex64], x: &DMatrix<Complex64>) -
 }
 
 /// The Doppler (bins plus the log-parabola offset) of the azimuth Capon beam of bin `i` on the
-/// uncompensated covariance; `None` when the azimuth covariance is not positive definite.
+/// uncompensated covariance, or `Rejected` when the Doppler test is on and the azimuth beam
+/// after TDM compensation by that Doppler (and the climb) fails it; `None` when the azimuth
+/// covariance is not positive definite. (A compensated covariance that is not positive
+/// definite passes the test: it rejects only what it measured.)
 fn beam_doppler(
     setup: &Setup,
     params: &Params,
@@ -1233,11 +1242,108 @@ fn beam_doppler(
     let (az, _, rows) = setup.azimuth_capon(r, params)?;
     let w = az.weight(&setup.steering(rows, *setup.az_mu.get(i)?, 0.0));
     let y = beamform(&w, &vec![Complex64::new(1.0, 0.0); rows], x);
-    if !setup.passes_doppler_test(&y, params, margin) {
-        return Some(BeamDoppler::Rejected);
-    }
     let (d, offset) = setup.doppler(y, margin);
-    Some(BeamDoppler::Bins(f64::from(d) + offset))
+    let d = f64::from(d) + offset;
+    if params.doppler_test_db > 0.0 {
+        let c = match params.tdm_compensation {
+            true => compensate(setup, params, r, d, i, margin),
+            false => Compensation {
+                rotation: vec![Complex64::new(1.0, 0.0); setup.array.len()],
+                covariance: r.clone(),
+                azimuth_bin: i,
+                azimuth_frac: None,
+            },
+        };
+        if let Some((az, _, rows)) = setup.azimuth_capon(&c.covariance, params) {
+            let w = az.weight(&setup.steering(rows, setup.az_mu[c.azimuth_bin], 0.0));
+            let y = beamform(&w, &c.rotation[..rows], x);
+            if !setup.passes_doppler_test(&y, params, margin) {
+                return Some(BeamDoppler::Rejected);
+            }
+        }
+    }
+    Some(BeamDoppler::Bins(d))
+}
+
+/// TDM compensation of one detection at azimuth bin `i` whose beam Doppler is `d` bins.
+struct Compensation {
+    /// `exp(−j·4π·v·slot_m·Tc/λ)` per row.
+    rotation: Vec<Complex64>,
+    /// `D·R·Dᴴ`.
+    covariance: DMatrix<Complex64>,
+    /// The azimuth bin after the climb on the compensated spectrum.
+    azimuth_bin: usize,
+    /// The log-parabola offset there (`None`: the compensated line was not positive definite).
+    azimuth_frac: Option<f64>,
+}
+
+/// Rotate every row by its slot's Doppler phase and climb the compensated azimuth spectrum
+/// uphill from bin `i`, at most `tdm_azimuth_search` bins (left when `left > here` and
+/// `left ≥ right`, else right when `right > here`).
+fn compensate(
+    setup: &Setup,
+    params: &Params,
+    r: &DMatrix<Complex64>,
+    d: f64,
+    mut i: usize,
+    margin: &mut Margin,
+) -> Compensation {
+    let naz = setup.az_mu.len();
+    let v = d * setup.doppler_bin_mps;
+    // Slot t fires t·Tc after the loop start: its Doppler phase is 4π·v·t·Tc/λ ahead.
+    let rotation: Vec<Complex64> = setup
+        .array
+        .elements
+        .iter()
+        .map(|e| Complex64::from_polar(1.0, -setup.slot_phase_per_mps * v * e.slot as f64))
+        .collect();
+    let dm = DMatrix::from_diagonal(&DVector::from_column_slice(&rotation));
+    let covariance = &dm * r * dm.adjoint();
+    let mut azimuth_frac = None;
+    if let Some((az, _, rows)) = setup.azimuth_capon(&covariance, params) {
+        let power = |i: usize| az.power(&setup.steering(rows, setup.az_mu[i], 0.0));
+        let mut here = power(i);
+        for _ in 0..params.tdm_azimuth_search {
+            let left = if i > 0 { power(i - 1) } else { 0.0 };
+            let right = if i + 1 < naz { power(i + 1) } else { 0.0 };
+            if left > here && left >= right {
+                margin.note(left, here);
+                margin.note(left, right);
+                i -= 1;
+                here = left;
+            } else if right > here {
+                margin.note(right, here);
+                if left > here {
+                    margin.note(left, right);
+                }
+                i += 1;
+                here = right;
+            } else {
+                margin.note(left, here);
+                margin.note(right, here);
+                break;
+            }
+        }
+        let edge = |i: Option<usize>| i.filter(|&i| i < naz).map_or(0.0, power);
+        azimuth_frac = Some(log_parabola_vertex(
+            edge(i.checked_sub(1)),
+            power(i),
+            edge(Some(i + 1)),
+        ));
+    }
+    Compensation {
+        rotation,
+        covariance,
+        azimuth_bin: i,
+        azimuth_frac,
+    }
+}
+
+/// The circular distance of two Dopplers, bins (modulo `K`).
+fn doppler_gap(setup: &Setup, a: f64, b: f64) -> f64 {
+    let k = setup.k as f64;
+    let gap = (a - b).abs() % k;
+    gap.min(k - gap)
 }
 
 /// The beam Doppler of one detection.
@@ -1264,12 +1370,10 @@ fn coherent(
     else {
         return false;
     };
-    let k = setup.k as f64;
     let mut any = false;
     for (m, d) in beams.iter().enumerate() {
         if let (true, Some(d)) = (m != n, d) {
-            let gap = (d - mine).abs() % k;
-            let gap = gap.min(k - gap);
+            let gap = doppler_gap(setup, *d, *mine);
             margin.note(gap, window);
             any |= gap < window;
         }
@@ -1329,40 +1433,9 @@ fn resolve(
         let Some(d) = beam.doppler else {
             return;
         };
-        let v = d * setup.doppler_bin_mps;
-        // Slot t fires t·Tc after the loop start: its Doppler phase is 4π·v·t·Tc/λ ahead.
-        for (o, e) in rot.iter_mut().zip(&setup.array.elements) {
-            *o = Complex64::from_polar(1.0, -setup.slot_phase_per_mps * v * e.slot as f64);
-        }
-        let dm = DMatrix::from_diagonal(&DVector::from_column_slice(&rot));
-        r = &dm * r * dm.adjoint();
-        if let Some((az, _, rows)) = setup.azimuth_capon(&r, params) {
-            let power = |i: usize| az.power(&setup.steering(rows, setup.az_mu[i], 0.0));
-            let mut here = power(i);
-            for _ in 0..params.tdm_azimuth_search {
-                let left = if i > 0 { power(i - 1) } else { 0.0 };
-                let right = if i + 1 < naz { power(i + 1) } else { 0.0 };
-                if left > here && left >= right {
-                    margin.note(left, here);
-                    margin.note(left, right);
-                    i -= 1;
-                    here = left;
-                } else if right > here {
-                    margin.note(right, here);
-                    if left > here {
-                        margin.note(left, right);
-                    }
-                    i += 1;
-                    here = right;
-                } else {
-                    margin.note(left, here);
-                    margin.note(right, here);
-                    break;
-                }
-            }
-            let edge = |i: Option<usize>| i.filter(|&i| i < naz).map_or(0.0, power);
-            az_frac = log_parabola_vertex(edge(i.checked_sub(1)), power(i), edge(Some(i + 1)));
-        }
+        let c = compensate(setup, params, &r, d, i, margin);
+        (rot, r, i) = (c.rotation, c.covariance, c.azimuth_bin);
+        az_frac = c.azimuth_frac.unwrap_or(az_frac);
     }
 
     // Stage 3: elevation sweep on the full array, no forward–backward averaging; coherent
@@ -1436,6 +1509,15 @@ fn resolve(
             w[row] = *v;
         }
         let (d, d_frac) = setup.doppler(beamform(&w, &rot, x), margin);
+        // Doppler agreement (beyond the spec): the point's beam shows its detection's tone.
+        let window = f64::from(params.doppler_agreement_bins);
+        if let (Some(beam_d), true) = (beam.doppler, window > 0.0) {
+            let gap = doppler_gap(setup, f64::from(d) + d_frac, beam_d);
+            margin.note(gap, window);
+            if gap > window {
+                continue;
+            }
+        }
         let doppler_bins = if params.subgrid {
             f64::from(d) + d_frac
         } else {

@@ -204,8 +204,11 @@ fn demo_runs_and_replaces_only_its_own_output() -> TestResult {
     Ok(())
 }
 
-/// The real TI capture (its folder holds the calibration): the corner reflector at range bin 38
-/// and its double bounce at twice the range.
+/// The real TI capture (its folder holds the calibration; a static scene): at the defaults the
+/// corner reflector at range bin 38, its double bounce at twice the range and its triple bounce,
+/// all static, and nothing else. Without the Doppler agreement the weak static returns beside
+/// them come out as moving points (their full-array Capon weights cancel them: the array is
+/// uncalibrated).
 #[test]
 fn processes_the_real_capture() -> TestResult {
     let Some(shared) = shared_fixture_dir() else {
@@ -226,6 +229,23 @@ fn processes_the_real_capture() -> TestResult {
     );
     let double = pts.iter().filter(|p| p.range_bin.abs_diff(76) <= 1).count();
     assert_eq!(double, 1, "the double bounce: {pts:?}");
+    let mut bins: Vec<u32> = pts.iter().map(|p| p.range_bin).collect();
+    bins.sort_unstable();
+    assert_eq!(bins, [38, 75, 111], "{pts:?}");
+    assert!(pts.iter().all(|p| p.doppler_bin == 0), "{pts:?}");
+    let without = tmp.path().join("without");
+    ok(&[
+        "process",
+        s(&bin),
+        "--out",
+        s(&without),
+        "--format",
+        "csv",
+        "--no-doppler-agreement",
+    ]);
+    let pts = host_sim::io::pointcloud::read_csv(&without.join("csv/frame_0.csv"))?;
+    let moving = pts.iter().filter(|p| p.doppler_bin != 0).count();
+    assert!(moving >= 5, "{moving} moving of {}: {pts:?}", pts.len());
     Ok(())
 }
 
@@ -525,7 +545,8 @@ fn every_process_run_leaves_a_record_and_quiet_prints_nothing() -> TestResult {
         );
     }
     assert!(run["frames_per_second"].as_f64().is_some_and(|v| v > 0.0));
-    assert_eq!(run["parameters"]["doppler_test_db"], 0.0);
+    assert_eq!(run["parameters"]["doppler_test_db"], 12.0);
+    assert_eq!(run["parameters"]["doppler_agreement_bins"], 1.5);
     assert_eq!(run["parameters"]["coherent_doppler_bins"], 1.5);
     // Without --quiet, one summary line with the time and the rate.
     let stdout = ok(&["process", s(&seq), "--out", s(&dir.path().join("out2"))]);
@@ -538,6 +559,7 @@ fn every_process_run_leaves_a_record_and_quiet_prints_nothing() -> TestResult {
     let p = &run["parameters"];
     assert_eq!(p["tdm_compensation"], false);
     assert_eq!(p["doppler_test_db"], 0.0);
+    assert_eq!(p["doppler_agreement_bins"], 0.0);
     assert_eq!(p["coherent_doppler_bins"], 0.0);
     assert_eq!(p["spatial_smoothing"], false);
     Ok(())

@@ -20,9 +20,13 @@ pub struct ParamArgs {
     /// Turn TDM-MIMO motion compensation off (reproduces the paper's chain).
     #[arg(long)]
     pub no_tdm_compensation: bool,
-    /// CFAR threshold α over the noise level, dB, in [−10, 60] [default: 8].
+    /// CFAR threshold α over the noise level, dB, in [−10, 60] [default: 3].
     #[arg(long, value_name = "DB", allow_negative_numbers = true)]
     pub cfar_threshold_db: Option<f32>,
+    /// CFAR order-statistic quantile q: the noise level is the ⌈q·n⌉-th smallest of the n
+    /// training cells, q in (0, 1] [default: 0.75].
+    #[arg(long, value_name = "Q")]
+    pub cfar_quantile: Option<f32>,
     /// Diagonal loading γ (δ = γ·tr(R)/M), in (0, 1] [default: 0.01].
     #[arg(long, value_name = "GAMMA", allow_negative_numbers = true)]
     pub loading: Option<f32>,
@@ -39,15 +43,20 @@ pub struct ParamArgs {
     /// 12° or more apart are always resolved, at the cost of one element of azimuth aperture.
     #[arg(long)]
     pub spatial_smoothing: bool,
-    /// The paper's chain: no TDM-MIMO compensation, no coherent sub-array, no Doppler test
-    /// (the other options still apply on top).
+    /// The paper's chain: no TDM-MIMO compensation, no coherent sub-array, no Doppler test, no
+    /// Doppler agreement (the other options still apply on top).
     #[arg(long)]
     pub paper: bool,
-    /// Turn the Doppler test on: drop detections whose azimuth Capon beam has no slow-time
-    /// peak 12 dB over its Doppler spectrum's median (off by default: it can drop strong fast
-    /// targets, see `Params::doppler_test_db`).
+    /// Turn the Doppler test off: by default a detection whose azimuth Capon beam (after TDM
+    /// compensation) has no slow-time peak 12 dB over its Doppler spectrum's median is dropped
+    /// (`Params::doppler_test_db`).
     #[arg(long)]
-    pub doppler_test: bool,
+    pub no_doppler_test: bool,
+    /// Turn the Doppler agreement off: by default a point whose own Capon beam peaks more than
+    /// 1.5 Doppler bins from its detection's azimuth beam is dropped
+    /// (`Params::doppler_agreement_bins`).
+    #[arg(long)]
+    pub no_doppler_agreement: bool,
 }
 
 impl ParamArgs {
@@ -58,8 +67,11 @@ impl ParamArgs {
             false => dbe_radar::Params::defaults(sensor.samples),
         };
         p.tdm_compensation = !self.no_tdm_compensation && !self.paper;
-        if self.doppler_test {
-            p.doppler_test_db = 12.0;
+        if self.no_doppler_test {
+            p.doppler_test_db = 0.0;
+        }
+        if self.no_doppler_agreement {
+            p.doppler_agreement_bins = 0.0;
         }
         p.subgrid = self.subgrid;
         if self.no_coherent {
@@ -73,6 +85,12 @@ impl ParamArgs {
                 anyhow::bail!("--cfar-threshold-db {t}: expected a value in [-10, 60] dB");
             }
             p.cfar.threshold_db = t;
+        }
+        if let Some(q) = self.cfar_quantile {
+            if !(q > 0.0 && q <= 1.0) {
+                anyhow::bail!("--cfar-quantile {q}: expected a value in (0, 1]");
+            }
+            p.cfar.kind = dbe_radar::cfar::CfarKind::OrderStatistic { quantile: q };
         }
         if let Some(g) = self.loading {
             // γ is a fraction of the mean antenna power: above 1 the loading outweighs the

@@ -233,6 +233,7 @@ fn run_record(
             "coherent_doppler_bins": params.coherent_doppler_bins,
             "spatial_smoothing": params.spatial_smoothing,
             "doppler_test_db": params.doppler_test_db,
+            "doppler_agreement_bins": params.doppler_agreement_bins,
             "cfar_threshold_db": params.cfar.threshold_db,
             "loading": params.loading,
             "all": format!("{params:?}"),

@@ -249,6 +249,8 @@ pub enum SweepValue {
     DopplerTest(f32),
     /// The coherent-target Doppler window, bins (0: off).
     Coherent(f32),
+    /// The Doppler agreement window, bins (0: off).
+    DopplerAgreement(f32),
 }
 
 impl SweepValue {
@@ -261,6 +263,7 @@ impl SweepValue {
             SweepValue::ElevationPeaks(..) => "elevation peaks (max, range dB)",
             SweepValue::DopplerTest(_) => "Doppler test (dB)",
             SweepValue::Coherent(_) => "coherent window (bins)",
+            SweepValue::DopplerAgreement(_) => "Doppler agreement (bins)",
         }
     }
 
@@ -273,6 +276,7 @@ impl SweepValue {
             SweepValue::ElevationPeaks(n, r) => format!("{n}, {r}"),
             SweepValue::DopplerTest(t) => format!("{t}"),
             SweepValue::Coherent(c) => format!("{c}"),
+            SweepValue::DopplerAgreement(g) => format!("{g}"),
         }
     }
 
@@ -290,6 +294,7 @@ impl SweepValue {
             }
             SweepValue::DopplerTest(t) => params.doppler_test_db = t,
             SweepValue::Coherent(c) => params.coherent_doppler_bins = c,
+            SweepValue::DopplerAgreement(g) => params.doppler_agreement_bins = g,
         }
         params
     }
@@ -308,7 +313,7 @@ pub fn defaults_sweep() -> Vec<SweepValue> {
     for g in [1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1] {
         v.push(SweepValue::Loading(g));
     }
-    for a in [2.0, 3.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0] {
+    for a in [1.0, 2.0, 2.5, 3.0, 4.0, 6.0, 8.0, 12.0] {
         v.push(SweepValue::CfarThreshold(a));
     }
     for q in [0.25, 0.5, 0.625, 0.75, 0.875] {
@@ -322,6 +327,9 @@ pub fn defaults_sweep() -> Vec<SweepValue> {
     }
     for c in [0.0, 1.5] {
         v.push(SweepValue::Coherent(c));
+    }
+    for g in [0.0, 1.0, 1.5, 3.0] {
+        v.push(SweepValue::DopplerAgreement(g));
     }
     v
 }
