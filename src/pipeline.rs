@@ -112,7 +112,7 @@ pub struct Params {
     /// cancels), and its strongest bin is noise. On the real TI corner-reflector capture such
     /// points are the moving ones of a static scene: at α = 3 dB, 13 points of which 10 move
     /// without the rule, the reflector and its two bounces, all static, with it; on the
-    /// simulated extended scenes it drops 15 % of the points at α = 3 dB and lowers the false
+    /// simulated extended scenes it drops 14 % of the points at α = 3 dB and lowers the false
     /// points per frame from 0.15 to 0.03 (`dbe eval`, defaults sweep). 1.5 bins (as the
     /// coherent window) leaves half a bin for the error of each estimate. The rule also drops
     /// a second elevation peak whose target moves at another radial velocity than the one

@@ -259,8 +259,8 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
         }
     }
     assert!(md.contains("## Chamfer distance on sequence maps"));
-    // Four point-cloud goals (issue 4), four odometry goals (issue 9).
-    assert_eq!(json["goals"].as_array().map(Vec::len), Some(8));
+    // Four point-cloud goals (issue 4), density (issue 10), four odometry goals (issue 9).
+    assert_eq!(json["goals"].as_array().map(Vec::len), Some(9));
     assert_eq!(
         json["odometry"].as_array().map(Vec::len),
         Some(host_sim::eval::odometry::SEQUENCES.len() * 2)

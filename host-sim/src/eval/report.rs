@@ -747,11 +747,18 @@ fn odometry_section(m: &mut String, e: &Evaluation) {
             let _ = writeln!(m, "- {}: {mean:+.2} ± {sd:.2}", s.sequence);
         }
     }
+    let z_worst = e
+        .odometry_summary
+        .iter()
+        .all(|s| s.ego_rmse_mps[2] >= s.ego_rmse_mps[0].max(s.ego_rmse_mps[1]));
     let _ = writeln!(
         m,
-        "\nThe DBE chain's points are sparser than the FFT chain's (the detection section above): frames with \
-         fewer than the estimator's 5 inliers give no update, and nearly flat point sets leave the vertical \
-         velocity poorly observed. Issue 10's detector work is what this table waits on.\n"
+        "\nFrames with fewer than the estimator's 5 inliers give no update, and a nearly flat point set leaves \
+         the vertical velocity poorly observed{}.\n",
+        match z_worst {
+            true => " (z is the largest ego-velocity error of every row)",
+            false => "",
+        }
     );
 }
 
