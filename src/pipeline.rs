@@ -77,6 +77,9 @@ pub struct Params {
     pub tdm_azimuth_search: u8,
     /// Sub-grid refinement of range, azimuth, elevation and Doppler (see [`crate::refine`]):
     /// points get continuous coordinates instead of grid values; bin indices are unchanged.
+    /// On by default: in the evaluation (`docs/eval/report.md`, "Sub-grid refinement") it
+    /// lowers the angle and velocity RMSE at every SNR and the Chamfer distance on every scene,
+    /// and changes no detection or resolution. Off in the paper's chain (grid points).
     pub subgrid: bool,
     /// Coherent targets (see [`crate::subarray`]): a detection whose azimuth beam's Doppler
     /// lies within this many bins of another detection's of the same range bin is resolved
@@ -131,8 +134,8 @@ pub struct Params {
 
 impl Params {
     /// Defaults for `samples` samples per chirp: range bins `12 ..= N − 3`, Blackman range
-    /// window, Hann Doppler window, γ = 0.01, FB averaging and TDM compensation on, azimuth
-    /// ±70° (the paper's Table I), elevation ±25°.
+    /// window, Hann Doppler window, γ = 0.01, FB averaging, TDM compensation and sub-grid
+    /// refinement on, azimuth ±70° (the paper's Table I), elevation ±25°.
     ///
     /// The last kept bin is `N − 3`, not the spec's `N − 2`: the spectrum of a Blackman window
     /// spans bins 0, ±1, ±2 (coefficients 0.42, 0.25, 0.04), so whatever sits at DC before the
@@ -153,7 +156,7 @@ impl Params {
             spatial_smoothing: false,
             tdm_compensation: true,
             tdm_azimuth_search: 8,
-            subgrid: false,
+            subgrid: true,
             coherent_doppler_bins: 1.5,
             doppler_test_db: 12.0,
             doppler_agreement_bins: 1.5,
@@ -166,8 +169,8 @@ impl Params {
 
     /// The paper's chain as it describes it: [`Self::defaults`] without the additions of this
     /// crate that change its points (TDM-MIMO compensation, the coherent-target sub-array, the
-    /// Doppler test, spatial smoothing). The CFAR threshold stays the default's: the paper
-    /// gives none.
+    /// Doppler test and agreement, spatial smoothing, sub-grid refinement). The CFAR threshold
+    /// stays the default's: the paper gives none.
     pub const fn paper(samples: usize) -> Self {
         let mut p = Self::defaults(samples);
         p.tdm_compensation = false;
@@ -175,6 +178,7 @@ impl Params {
         p.doppler_test_db = 0.0;
         p.doppler_agreement_bins = 0.0;
         p.spatial_smoothing = false;
+        p.subgrid = false;
         p
     }
 

@@ -327,7 +327,7 @@ fn subgrid_refinement_beats_grid_quantisation() {
 #[test]
 fn the_papers_chain_is_the_defaults_without_the_additions() {
     let (paper, d) = (Params::paper(p::SAMPLES), Params::defaults(p::SAMPLES));
-    assert!(!paper.tdm_compensation && !paper.spatial_smoothing);
+    assert!(!paper.tdm_compensation && !paper.spatial_smoothing && !paper.subgrid);
     assert_eq!(
         (
             paper.coherent_doppler_bins,
@@ -341,6 +341,7 @@ fn the_papers_chain_is_the_defaults_without_the_additions() {
         coherent_doppler_bins: d.coherent_doppler_bins,
         doppler_test_db: d.doppler_test_db,
         doppler_agreement_bins: d.doppler_agreement_bins,
+        subgrid: d.subgrid,
         ..paper
     };
     assert_eq!(restored, d);

@@ -124,7 +124,7 @@ fn simulate_process_validate_plot() -> TestResult {
         "fft",
         "--frames",
         "1..3",
-        "--subgrid",
+        "--grid",
     ]);
     assert_eq!(host_sim::io::read_coloradar_pointclouds(&fft)?.len(), 2);
 

@@ -280,8 +280,8 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
     for v in [
         names::DBE,
         names::FFT,
-        names::DBE_SUBGRID,
-        names::FFT_SUBGRID,
+        names::DBE_GRID,
+        names::FFT_GRID,
         names::DBE_NO_TDM,
         names::FFT_NO_TDM,
     ] {
@@ -335,7 +335,7 @@ fn angle_errors_shrink_with_snr_down_to_the_grid_floor() {
     let e = quick();
     let at = |v: &str, s: f64| e.accuracy_at(v, s).unwrap_or_else(|| panic!("{v} {s}"));
     // Sub-grid FFT azimuth and FFT elevation (continuous) fall with SNR.
-    let (lo, hi) = (at(names::FFT_SUBGRID, -5.0), at(names::FFT_SUBGRID, 30.0));
+    let (lo, hi) = (at(names::FFT, -5.0), at(names::FFT, 30.0));
     let az = (
         lo.az_rmse_deg.unwrap_or(0.0),
         hi.az_rmse_deg.unwrap_or(f64::INFINITY),
@@ -348,7 +348,7 @@ fn angle_errors_shrink_with_snr_down_to_the_grid_floor() {
     assert!(el.0 > 4.0 * el.1, "elevation {el:?}");
     // On the grid, at 30 dB, both chains sit on the azimuth quantisation floor step/√12.
     let floor = AZIMUTH_STEP_DEG / 12f64.sqrt();
-    for v in [names::DBE, names::FFT] {
+    for v in [names::DBE_GRID, names::FFT_GRID] {
         let r = at(v, 30.0).az_rmse_deg.unwrap_or(f64::NAN);
         assert!(
             r > 0.6 * floor && r < 1.6 * floor,
@@ -368,7 +368,8 @@ fn doppler_errors_are_the_bin_quantisation_and_the_velocity_scale_of_the_model()
     let predicted = -w.wavelength_m(128) / (4.0 * 128.0 * w.range_bin_m(128));
     assert!((predicted + 6.04e-5).abs() < 1e-6, "{predicted}");
     for s in [10.0, 20.0, 30.0] {
-        for v in [names::DBE, names::FFT] {
+        // On the grid both chains are quantised to one Doppler bin.
+        for v in [names::DBE_GRID, names::FFT_GRID] {
             let r = e
                 .accuracy_at(v, s)
                 .and_then(|r| r.doppler_rmse_mps)
@@ -381,7 +382,7 @@ fn doppler_errors_are_the_bin_quantisation_and_the_velocity_scale_of_the_model()
             );
         }
         let slope = e
-            .accuracy_at(names::FFT_SUBGRID, s)
+            .accuracy_at(names::FFT, s)
             .and_then(|r| r.doppler_scale)
             .unwrap_or(f64::NAN);
         assert!(

@@ -101,11 +101,11 @@ fn readme_headline_table_is_the_committed_report() -> TestResult {
     let pct = |p: f64| format!("{:.0} %", 100.0 * p);
     let lines = [
         format!(
-            "| azimuth RMSE at 20 dB per-antenna SNR (CRB {crb:.3}°), grid / `--subgrid` | {:.3}° / {:.3}° | {:.3}° / {:.3}° |",
+            "| azimuth RMSE at 20 dB per-antenna SNR (CRB {crb:.3}°), sub-grid (default) / `--grid` | {:.3}° / {:.3}° | {:.3}° / {:.3}° |",
             az("dbe")?,
-            az("dbe+subgrid")?,
+            az("dbe-grid")?,
             az("fft")?,
-            az("fft+subgrid")?
+            az("fft-grid")?
         ),
         format!(
             "| two non-coherent targets 8° apart at 20 dB resolved | {} | {} (by Doppler) |",

@@ -30,9 +30,12 @@ pub struct ParamArgs {
     /// Diagonal loading γ (δ = γ·tr(R)/M), in (0, 1] [default: 0.01].
     #[arg(long, value_name = "GAMMA", allow_negative_numbers = true)]
     pub loading: Option<f32>,
-    /// Sub-grid refinement of range, azimuth, elevation and Doppler (continuous coordinates
-    /// instead of grid values; bin indices unchanged).
+    /// Points on the spec's grid: no sub-grid refinement of range, azimuth, elevation and
+    /// Doppler (by default the coordinates are continuous; bin indices are the same either way).
     #[arg(long)]
+    pub grid: bool,
+    /// Sub-grid refinement (the default; kept so that older scripts run).
+    #[arg(long, hide = true)]
     pub subgrid: bool,
     /// Resolve every detection on the full array, also coherent ones (two targets of one range
     /// bin with one Doppler), as the paper's chain does; by default those use the
@@ -44,7 +47,7 @@ pub struct ParamArgs {
     #[arg(long)]
     pub spatial_smoothing: bool,
     /// The paper's chain: no TDM-MIMO compensation, no coherent sub-array, no Doppler test, no
-    /// Doppler agreement (the other options still apply on top).
+    /// Doppler agreement, points on the grid (the other options still apply on top).
     #[arg(long)]
     pub paper: bool,
     /// Turn the Doppler test off: by default a detection whose azimuth Capon beam (after TDM
@@ -73,7 +76,11 @@ impl ParamArgs {
         if self.no_doppler_agreement {
             p.doppler_agreement_bins = 0.0;
         }
-        p.subgrid = self.subgrid;
+        if self.grid {
+            p.subgrid = false;
+        } else if self.subgrid {
+            p.subgrid = true;
+        }
         if self.no_coherent {
             p.coherent_doppler_bins = 0.0;
         }

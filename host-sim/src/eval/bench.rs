@@ -16,7 +16,7 @@ use crate::sensor::SensorConfig;
 /// A named chain configuration.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Variant {
-    /// Short name used in tables (`dbe`, `fft+subgrid`, …).
+    /// Short name used in tables (`dbe`, `fft-grid`, …).
     pub name: String,
     /// Which chain.
     pub chain: Chain,

@@ -41,12 +41,7 @@ struct RmseChart {
 
 pub(super) fn charts(e: &Evaluation) -> Vec<(String, Chart)> {
     let mut out = Vec::new();
-    let main = [
-        names::DBE,
-        names::FFT,
-        names::DBE_SUBGRID,
-        names::FFT_SUBGRID,
-    ];
+    let main = [names::DBE, names::FFT, names::DBE_GRID, names::FFT_GRID];
     let snr_lo = e.config.snr_db.first().copied().unwrap_or(0.0);
     let snr_hi = e.config.snr_db.last().copied().unwrap_or(0.0);
     let specs: [RmseChart; 3] = [

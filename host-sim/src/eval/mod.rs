@@ -14,7 +14,7 @@
 //! Every frame is rendered once by the simulator ([`crate::sim`]) and fed, chirp by chirp,
 //! to every chain variant through [`crate::core_run::CoreRunner`] exactly as `dbe process`
 //! runs it ([`mod@bench`]): the chains see identical data. Variants: the DBE chain and the
-//! FFT chain at their defaults, each with sub-grid refinement, each with TDM compensation off.
+//! FFT chain at their defaults, each on the grid (no sub-grid refinement), each with TDM compensation off.
 //!
 //! # Definitions
 //!
@@ -205,21 +205,24 @@ pub mod names {
     pub const DBE: &str = "dbe";
     /// FFT chain, defaults.
     pub const FFT: &str = "fft";
-    /// DBE chain with sub-grid refinement.
-    pub const DBE_SUBGRID: &str = "dbe+subgrid";
-    /// FFT chain with sub-grid refinement.
-    pub const FFT_SUBGRID: &str = "fft+subgrid";
+    /// DBE chain without sub-grid refinement (points on the grid).
+    pub const DBE_GRID: &str = "dbe-grid";
+    /// FFT chain without sub-grid refinement.
+    pub const FFT_GRID: &str = "fft-grid";
     /// DBE chain without TDM compensation.
     pub const DBE_NO_TDM: &str = "dbe-tdm";
     /// FFT chain without TDM compensation.
     pub const FFT_NO_TDM: &str = "fft-tdm";
 }
 
-/// The compared variants: both chains at their defaults, with sub-grid refinement, and
-/// without TDM compensation.
+/// The compared variants: both chains at their defaults (sub-grid refinement on), on the grid,
+/// and without TDM compensation.
 pub fn main_variants() -> Vec<Variant> {
     let d = Params::defaults(p::SAMPLES);
-    let subgrid = Params { subgrid: true, ..d };
+    let grid = Params {
+        subgrid: false,
+        ..d
+    };
     let no_tdm = Params {
         tdm_compensation: false,
         ..d
@@ -227,8 +230,8 @@ pub fn main_variants() -> Vec<Variant> {
     vec![
         Variant::dbe(names::DBE, d),
         Variant::fft(names::FFT, d),
-        Variant::dbe(names::DBE_SUBGRID, subgrid),
-        Variant::fft(names::FFT_SUBGRID, subgrid),
+        Variant::dbe(names::DBE_GRID, grid),
+        Variant::fft(names::FFT_GRID, grid),
         Variant::dbe(names::DBE_NO_TDM, no_tdm),
         Variant::fft(names::FFT_NO_TDM, no_tdm),
     ]
@@ -375,8 +378,8 @@ pub fn run_evaluation(
     let pair_variants = [
         idx(names::DBE)?,
         idx(names::FFT)?,
-        idx(names::DBE_SUBGRID)?,
-        idx(names::FFT_SUBGRID)?,
+        idx(names::DBE_GRID)?,
+        idx(names::FFT_GRID)?,
     ];
     let mut timings = Vec::new();
     let mut stage = |name: &str, t: Instant| {

@@ -61,8 +61,8 @@ fn markdown(e: &Evaluation) -> String {
          reproducible from that command: all random draws follow from the seed. Every variant processes \
          the same simulated ADC frames, fed chirp by chirp through the core runner as `dbe process` does \
          (ColoRadar preset: 128 samples, 128 loops, 3 TX × 4 RX; \
-         ADC noise {} LSB per I and Q). Variants: `dbe`, `fft` (defaults), `+subgrid` (sub-grid \
-         refinement on), `-tdm` (TDM-MIMO compensation off).\n",
+         ADC noise {} LSB per I and Q). Variants: `dbe`, `fft` (defaults, sub-grid refinement \
+         on), `-grid` (points on the grid: sub-grid refinement off), `-tdm` (TDM-MIMO compensation off).\n",
         if c.quick { " --quick" } else { "" },
         c.seed,
         e.wall_time_s,
@@ -180,7 +180,7 @@ fn angle_section(m: &mut String, e: &Evaluation) {
         "![azimuth RMSE](azimuth_rmse.png)\n\n![elevation RMSE](elevation_rmse.png)\n\n\
          Charts: dashed black = CRB (root mean over the trials), dashed grey = grid floor step/√12.\n"
     );
-    let _ = writeln!(m, "| SNR (dB) | ADC SNR (dB) | CRB az (°) | dbe az (°) | fft az (°) | dbe+subgrid az | fft+subgrid az | CRB el (°) | dbe el (°) | fft el (°) | dbe+subgrid el | fft+subgrid el |");
+    let _ = writeln!(m, "| SNR (dB) | ADC SNR (dB) | CRB az (°) | dbe az (°) | fft az (°) | dbe-grid az | fft-grid az | CRB el (°) | dbe el (°) | fft el (°) | dbe-grid el | fft-grid el |");
     let _ = writeln!(m, "|---|---|---|---|---|---|---|---|---|---|---|---|");
     for &s in &e.config.snr_db {
         let r = |v: &str| e.accuracy_at(v, s);
@@ -192,18 +192,19 @@ fn angle_section(m: &mut String, e: &Evaluation) {
             base.crb_az_deg,
             f(r(names::DBE).and_then(|x| x.az_rmse_deg), 3),
             f(r(names::FFT).and_then(|x| x.az_rmse_deg), 3),
-            f(r(names::DBE_SUBGRID).and_then(|x| x.az_rmse_deg), 3),
-            f(r(names::FFT_SUBGRID).and_then(|x| x.az_rmse_deg), 3),
+            f(r(names::DBE_GRID).and_then(|x| x.az_rmse_deg), 3),
+            f(r(names::FFT_GRID).and_then(|x| x.az_rmse_deg), 3),
             base.crb_el_deg,
             f(r(names::DBE).and_then(|x| x.el_rmse_deg), 3),
             f(r(names::FFT).and_then(|x| x.el_rmse_deg), 3),
-            f(r(names::DBE_SUBGRID).and_then(|x| x.el_rmse_deg), 3),
-            f(r(names::FFT_SUBGRID).and_then(|x| x.el_rmse_deg), 3),
+            f(r(names::DBE_GRID).and_then(|x| x.el_rmse_deg), 3),
+            f(r(names::FFT_GRID).and_then(|x| x.el_rmse_deg), 3),
         );
     }
     let _ = writeln!(m, "\n– = no detection at that SNR (see the detection rates below). Reading the table: at high SNR \
-        both chains sit on their grid floors (0.216° azimuth; the DBE elevation grid 0.144°), far above the CRB; \
-        sub-grid refinement removes most of the azimuth floor and the DBE elevation floor. No slot-phase floor is \
+        both chains' grid points (`-grid` columns) sit on their grid floors (0.216° azimuth; the DBE elevation grid \
+        0.144°), far above the CRB; sub-grid refinement (the defaults) removes most of the azimuth floor and the DBE \
+        elevation floor. No slot-phase floor is \
         left in elevation: TDM compensation rotates by the fractional Doppler (strongest bin plus its log-parabola \
         offset); with the integer bin, up to ±½ bin of slot phase, 2π·Δd·Δt/(K·TX) per slot, would remain (for the \
         FFT chain's pairs, mean slot difference 1.5, σ_ν = 2π·1.5/(384·κ·√12) ≈ 0.0022, 0.13° of elevation). The FFT \
@@ -213,7 +214,7 @@ fn angle_section(m: &mut String, e: &Evaluation) {
 fn doppler_section(m: &mut String, e: &Evaluation) {
     let _ = writeln!(m, "## Doppler accuracy\n");
     let _ = writeln!(m, "![Doppler RMSE](doppler_rmse.png)\n");
-    let _ = writeln!(m, "| SNR (dB) | CRB (m/s) | dbe (m/s) | fft (m/s) | dbe+subgrid | fft+subgrid | velocity scale error dbe+subgrid |");
+    let _ = writeln!(m, "| SNR (dB) | CRB (m/s) | dbe (m/s) | fft (m/s) | dbe-grid | fft-grid | velocity scale error dbe |");
     let _ = writeln!(m, "|---|---|---|---|---|---|---|");
     for &s in &e.config.snr_db {
         let r = |v: &str| e.accuracy_at(v, s);
@@ -224,10 +225,10 @@ fn doppler_section(m: &mut String, e: &Evaluation) {
             base.crb_doppler_mps,
             f(r(names::DBE).and_then(|x| x.doppler_rmse_mps), 4),
             f(r(names::FFT).and_then(|x| x.doppler_rmse_mps), 4),
-            f(r(names::DBE_SUBGRID).and_then(|x| x.doppler_rmse_mps), 4),
-            f(r(names::FFT_SUBGRID).and_then(|x| x.doppler_rmse_mps), 4),
+            f(r(names::DBE_GRID).and_then(|x| x.doppler_rmse_mps), 4),
+            f(r(names::FFT_GRID).and_then(|x| x.doppler_rmse_mps), 4),
             f(
-                r(names::DBE_SUBGRID)
+                r(names::DBE)
                     .and_then(|x| x.doppler_scale)
                     .map(|v| 100.0 * v),
                 2
@@ -343,7 +344,7 @@ fn resolution_section(m: &mut String, e: &Evaluation) {
         placements and phases at every separation).\n",
         c.resolution_snr_db, c.trials_per_pair
     );
-    let _ = writeln!(m, "| separation (°) | dbe coherent | fft coherent | dbe non-coherent | fft non-coherent | dbe+subgrid coherent | dbe+subgrid non-coherent | dbe el RMSE coherent (°) | dbe el RMSE non-coherent (°) |");
+    let _ = writeln!(m, "| separation (°) | dbe coherent | fft coherent | dbe non-coherent | fft non-coherent | dbe-grid coherent | dbe-grid non-coherent | dbe el RMSE coherent (°) | dbe el RMSE non-coherent (°) |");
     let _ = writeln!(m, "|---|---|---|---|---|---|---|---|---|");
     for &s in &c.separations_deg {
         let p = |v: &str, pair| {
@@ -361,8 +362,8 @@ fn resolution_section(m: &mut String, e: &Evaluation) {
             f(p(names::FFT, Pair::Coherent), 2),
             f(p(names::DBE, Pair::NonCoherent), 2),
             f(p(names::FFT, Pair::NonCoherent), 2),
-            f(p(names::DBE_SUBGRID, Pair::Coherent), 2),
-            f(p(names::DBE_SUBGRID, Pair::NonCoherent), 2),
+            f(p(names::DBE_GRID, Pair::Coherent), 2),
+            f(p(names::DBE_GRID, Pair::NonCoherent), 2),
             f(el(Pair::Coherent), 2),
             f(el(Pair::NonCoherent), 2),
         );
@@ -603,8 +604,8 @@ fn moving_section(m: &mut String, e: &Evaluation) {
         names::DBE_NO_TDM,
         names::FFT,
         names::FFT_NO_TDM,
-        names::DBE_SUBGRID,
-        names::FFT_SUBGRID,
+        names::DBE_GRID,
+        names::FFT_GRID,
     ] {
         let Some(r) = e.scene_at("moving_sensor", v) else {
             continue;
@@ -650,24 +651,21 @@ fn moving_section(m: &mut String, e: &Evaluation) {
 
 fn subgrid_section(m: &mut String, e: &Evaluation) {
     let _ = writeln!(m, "## Sub-grid refinement\n");
-    let _ = writeln!(m, "`Params::subgrid` / `FftParams::subgrid` (log-parabolic interpolation of the peaks; off by \
-        default). RMSE with / without, at three SNRs:\n");
+    let _ = writeln!(m, "`Params::subgrid` / `FftParams::subgrid` (log-parabolic interpolation of the peaks; on by \
+        default, off in the `-grid` variants and the paper's chain). RMSE without → with, at three SNRs:\n");
     let _ = writeln!(m, "| SNR (dB) | chain | az (°) off → on | el (°) off → on | velocity (m/s) off → on |\n|---|---|---|---|---|");
     let snrs: Vec<f64> = [10.0, 20.0, 30.0]
         .into_iter()
         .filter(|s| e.config.snr_db.iter().any(|x| (x - s).abs() < 1e-9))
         .collect();
     for s in snrs {
-        for (a, b) in [
-            (names::DBE, names::DBE_SUBGRID),
-            (names::FFT, names::FFT_SUBGRID),
-        ] {
+        for (a, b) in [(names::DBE_GRID, names::DBE), (names::FFT_GRID, names::FFT)] {
             let (Some(x), Some(y)) = (e.accuracy_at(a, s), e.accuracy_at(b, s)) else {
                 continue;
             };
             let _ = writeln!(
                 m,
-                "| {s} | {a} | {} → {} | {} → {} | {} → {} |",
+                "| {s} | {b} | {} → {} | {} → {} | {} → {} |",
                 f(x.az_rmse_deg, 3),
                 f(y.az_rmse_deg, 3),
                 f(x.el_rmse_deg, 3),
@@ -691,10 +689,10 @@ fn subgrid_section(m: &mut String, e: &Evaluation) {
         let _ = writeln!(
             m,
             "| {s} | {} → {} | {} → {} |",
+            f(g(names::DBE_GRID), 3),
             f(g(names::DBE), 3),
-            f(g(names::DBE_SUBGRID), 3),
-            f(g(names::FFT), 3),
-            f(g(names::FFT_SUBGRID), 3)
+            f(g(names::FFT_GRID), 3),
+            f(g(names::FFT), 3)
         );
     }
     let _ = writeln!(m, "\nThe refinement moves points by less than a bin (a few cm at these ranges), far below the \

@@ -215,10 +215,10 @@ pub struct ChamferHeadline {
     pub dbe: Option<f64>,
     /// FFT chain, m.
     pub fft: Option<f64>,
-    /// DBE chain with sub-grid refinement, m.
-    pub dbe_subgrid: Option<f64>,
-    /// FFT chain with sub-grid refinement, m.
-    pub fft_subgrid: Option<f64>,
+    /// DBE chain on the grid (no sub-grid refinement), m.
+    pub dbe_grid: Option<f64>,
+    /// FFT chain on the grid, m.
+    pub fft_grid: Option<f64>,
 }
 
 /// Everything the report shows.
@@ -342,8 +342,8 @@ impl Evaluation {
                     resolution: r,
                     dbe: get(names::DBE),
                     fft: get(names::FFT),
-                    dbe_subgrid: get(names::DBE_SUBGRID),
-                    fft_subgrid: get(names::FFT_SUBGRID),
+                    dbe_grid: get(names::DBE_GRID),
+                    fft_grid: get(names::FFT_GRID),
                 }
             })
             .collect::<Vec<_>>();
