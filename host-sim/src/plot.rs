@@ -254,6 +254,9 @@ pub struct MapsInput<'a> {
     pub range_doppler: Map<'a>,
     /// The frame's points, marked on both maps at their azimuth, radial velocity and range.
     pub points: &'a [PointRecord],
+    /// The colour scale spans this many dB below each map's maximum ([`DYNAMIC_RANGE_DB`] by
+    /// default; real data with a strong reflector may want more).
+    pub dynamic_range_db: f64,
 }
 
 /// The data areas of [`plot_maps`].
@@ -323,9 +326,9 @@ fn cell_edges(c: &[f64]) -> Vec<f64> {
     e
 }
 
-/// One heatmap panel: cells in viridis (dB relative to the map's maximum over
-/// [`DYNAMIC_RANGE_DB`]), unprocessed range bins in [`UNPROCESSED_COLOUR`] and labelled, points
-/// as hollow circles at `marks`.
+/// One heatmap panel: cells in viridis (dB relative to the map's maximum over `range_db`),
+/// unprocessed range bins in [`UNPROCESSED_COLOUR`] and labelled, points as hollow circles at
+/// `marks`.
 #[allow(clippy::too_many_arguments)]
 fn heatmap_panel(
     area: &Area<'_>,
@@ -336,6 +339,7 @@ fn heatmap_panel(
     range_bin_m: f64,
     processed: (usize, usize),
     marks: &[(f64, f64)],
+    range_db: f64,
 ) -> Drawn<Axes> {
     let edges = cell_edges(columns);
     let nr = db.len();
@@ -353,7 +357,7 @@ fn heatmap_panel(
             let colour = if b < processed.0 || b > processed.1 {
                 rgb(UNPROCESSED_COLOUR)
             } else {
-                rgb(map_colour((v + DYNAMIC_RANGE_DB) / DYNAMIC_RANGE_DB))
+                rgb(map_colour((v + range_db) / range_db))
             };
             let (r0, r1) = (
                 (b as f64 - 0.5) * range_bin_m,
@@ -464,15 +468,22 @@ fn point_azimuth_deg(p: &PointRecord) -> f64 {
 /// shared dB colour bar and the frame's points marked on both.
 ///
 /// Each map is drawn in dB relative to its own maximum, viridis from 0 dB down to
-/// −[`DYNAMIC_RANGE_DB`]; cells are centred on their bins, range goes up. Range bins outside
+/// −`dynamic_range_db`; cells are centred on their bins, range goes up. Range bins outside
 /// `processed_bins` are drawn in [`UNPROCESSED_COLOUR`] and labelled. The image is
 /// [`MAPS_SIZE`].
 ///
 /// Errors (naming `path`, nothing written): an empty map, rows of a length other than the
 /// column grid's, a grid that is not strictly increasing and finite, a power that is negative
 /// or not finite, maps of different range lengths, a `range_bin_m` that is not finite and
-/// positive, or a non-finite point.
+/// positive, a dynamic range outside 3–200 dB, or a non-finite point.
 pub fn plot_maps(path: &Path, m: &MapsInput<'_>) -> Result<MapAxes, IoError> {
+    let range_db = m.dynamic_range_db;
+    if !(3.0..=200.0).contains(&range_db) {
+        return Err(IoError::invalid(
+            path,
+            format!("dynamic range {range_db} dB; expected 3 to 200 dB"),
+        ));
+    }
     if !(m.range_bin_m.is_finite() && m.range_bin_m > 0.0) {
         return Err(IoError::invalid(
             path,
@@ -522,6 +533,7 @@ pub fn plot_maps(path: &Path, m: &MapsInput<'_>) -> Result<MapAxes, IoError> {
             m.range_bin_m,
             m.processed_bins,
             &ra_marks,
+            range_db,
         )?;
         let rd_axes = heatmap_panel(
             &panels[1],
@@ -532,12 +544,18 @@ pub fn plot_maps(path: &Path, m: &MapsInput<'_>) -> Result<MapAxes, IoError> {
             m.range_bin_m,
             m.processed_bins,
             &rd_marks,
+            range_db,
         )?;
         let bar_axes = colour_bar(
             &bar,
             "power re map maximum (dB)",
-            (-DYNAMIC_RANGE_DB, 0.0),
-            10.0,
+            (-range_db, 0.0),
+            // About four to eight labelled ticks.
+            match range_db {
+                r if r > 80.0 => 20.0,
+                r if r < 20.0 => 5.0,
+                _ => 10.0,
+            },
             false,
             &map_colour,
             ra_axes.top - root.get_base_pixel().1.max(0) as u32,

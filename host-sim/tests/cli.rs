@@ -136,6 +136,24 @@ fn simulate_process_validate_plot() -> TestResult {
     for f in ["maps_2.png", "points_top_2.png", "points_side_2.png"] {
         assert!(plots.join(f).is_file(), "{f}");
     }
+    // A wider colour scale for real data; an absurd one is refused before anything is made.
+    let wide = tmp.path().join("wide");
+    ok(&[
+        "plot",
+        s(&seq),
+        "--dynamic-range-db",
+        "80",
+        "--out",
+        s(&wide),
+    ]);
+    assert!(wide.join("maps_0.png").is_file());
+    let bad = tmp.path().join("bad");
+    let err = fails(&["plot", s(&seq), "--dynamic-range-db", "1", "--out", s(&bad)]);
+    assert!(
+        err.contains("--dynamic-range-db 1: expected 3 to 200 dB"),
+        "{err}"
+    );
+    assert!(!bad.exists());
     Ok(())
 }
 

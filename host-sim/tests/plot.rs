@@ -8,8 +8,8 @@ use host_sim::cloud::PointRecord;
 use host_sim::io::IoError;
 use host_sim::plot::{
     doppler_colour, doppler_scale, map_colour, plot_maps, plot_points, Axes, FrameInfo, Map,
-    MapAxes, MapsInput, MAPS_SIZE, MAP_POINT_COLOUR, SIDE_SIZE, TOP_SIZE, TRUTH_COLOUR,
-    UNPROCESSED_COLOUR,
+    MapAxes, MapsInput, DYNAMIC_RANGE_DB, MAPS_SIZE, MAP_POINT_COLOUR, SIDE_SIZE, TOP_SIZE,
+    TRUTH_COLOUR, UNPROCESSED_COLOUR,
 };
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
@@ -140,6 +140,7 @@ fn draw(path: &Path, f: &Frame) -> Result<MapAxes, IoError> {
                 columns: &f.vel,
             },
             points: std::slice::from_ref(&f.point),
+            dynamic_range_db: DYNAMIC_RANGE_DB,
         },
     )
 }
@@ -226,36 +227,44 @@ fn maps_put_each_peak_on_its_cell_and_grey_out_the_unprocessed_band() -> TestRes
 
 #[test]
 fn maps_scale_each_map_in_db_below_its_own_maximum() -> TestResult {
-    // Three columns at 0, −20 and −40 dB of the map's maximum; the range–Doppler map 30 dB
-    // stronger in absolute terms: its colours are the same.
+    // Three columns at 0, −20 and −40 dB of the map's maximum; the range–Doppler map
+    // 10 dB stronger in absolute terms: its colours are the same (exact powers of ten: exact dB).
     let cols = [-10.0, 0.0, 10.0];
-    let ra = vec![vec![100.0f32, 1.0, 0.01]; 4];
+    let ra = vec![vec![1e4f32, 1e2, 1.0]; 4];
     let rd = vec![vec![1e5f32, 1e3, 10.0]; 4];
     let dir = tempfile::tempdir()?;
     let path = dir.path().join("maps.png");
-    let axes = plot_maps(
-        &path,
-        &MapsInput {
-            info: &info(),
-            range_bin_m: 1.0,
-            processed_bins: (0, 3),
-            range_azimuth: Map {
-                rows: &ra,
-                columns: &cols,
+    // 0, −20 and −40 dB re each map's maximum: over 40 dB (the default) the top, middle and
+    // bottom of the scale; over 80 dB (`dbe plot --dynamic-range-db 80`) its top, ¾ and ½.
+    for (range_db, expected) in [
+        (DYNAMIC_RANGE_DB, [1.0, 0.5, 0.0]),
+        (80.0, [1.0, 0.75, 0.5]),
+    ] {
+        let axes = plot_maps(
+            &path,
+            &MapsInput {
+                info: &info(),
+                range_bin_m: 1.0,
+                processed_bins: (0, 3),
+                range_azimuth: Map {
+                    rows: &ra,
+                    columns: &cols,
+                },
+                range_doppler: Map {
+                    rows: &rd,
+                    columns: &cols,
+                },
+                points: &[],
+                dynamic_range_db: range_db,
             },
-            range_doppler: Map {
-                rows: &rd,
-                columns: &cols,
-            },
-            points: &[],
-        },
-    )?;
-    let img = decode(&path)?;
-    for a in [&axes.range_azimuth, &axes.range_doppler] {
-        let c = |x: f64| rgb(&img, expected_pixel(a, x, 2.0));
-        assert_eq!(c(-10.0), map_colour(1.0));
-        assert_eq!(c(0.0), map_colour(0.5));
-        assert_eq!(c(10.0), map_colour(0.0));
+        )?;
+        let img = decode(&path)?;
+        for a in [&axes.range_azimuth, &axes.range_doppler] {
+            let c = |x: f64| rgb(&img, expected_pixel(a, x, 2.0));
+            assert_eq!(c(-10.0), map_colour(expected[0]), "{range_db} dB");
+            assert_eq!(c(0.0), map_colour(expected[1]), "{range_db} dB");
+            assert_eq!(c(10.0), map_colour(expected[2]), "{range_db} dB");
+        }
     }
     Ok(())
 }
@@ -283,6 +292,7 @@ fn maps_refuse_bad_input_without_a_file() -> TestResult {
                         columns: &cols,
                     },
                     points: p,
+                    dynamic_range_db: DYNAMIC_RANGE_DB,
                 },
             )
         };
@@ -306,6 +316,27 @@ fn maps_refuse_bad_input_without_a_file() -> TestResult {
         (
             "point",
             try_maps(&good, &cols, &good, 0.1, &[point(1.0, 0.0, 0.0, f64::NAN)]),
+        ),
+        (
+            "dynamic range",
+            plot_maps(
+                &path,
+                &MapsInput {
+                    info: &info(),
+                    range_bin_m: 0.1,
+                    processed_bins: (0, 1),
+                    range_azimuth: Map {
+                        rows: &good,
+                        columns: &cols,
+                    },
+                    range_doppler: Map {
+                        rows: &good,
+                        columns: &cols,
+                    },
+                    points: &[],
+                    dynamic_range_db: 1.0,
+                },
+            ),
         ),
     ];
     for (what, r) in cases {

@@ -127,6 +127,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         &params,
         mid,
         &root.join("plots"),
+        host_sim::plot::DYNAMIC_RANGE_DB,
     )?;
     println!("5. plots of frame {mid}: {} files", plots.len());
 

@@ -29,6 +29,10 @@ pub struct PlotArgs {
     /// Output folder for the PNGs (created if missing; files are replaced atomically).
     #[arg(long)]
     pub out: PathBuf,
+    /// Colour scale of the maps: dB below each map's maximum, 3 to 200 (more shows weak
+    /// returns beside a strong reflector).
+    #[arg(long, value_name = "DB", default_value_t = host_sim::plot::DYNAMIC_RANGE_DB)]
+    pub dynamic_range_db: f64,
     #[command(flatten)]
     pub params: ParamArgs,
 }
@@ -58,13 +62,15 @@ pub fn truth_points(seq: Option<&Path>, i: usize) -> Result<Option<Vec<[f64; 3]>
 
 /// Plot frame `i` of `input` into `out`: `maps_<i>.png` (the DBE chain's range–azimuth map
 /// beside the FFT chain's range–Doppler map, the DBE points marked on both),
-/// `points_top_<i>.png` and `points_side_<i>.png`; returns the files written.
+/// `points_top_<i>.png` and `points_side_<i>.png`, the maps over `dynamic_range_db`; returns
+/// the files written.
 pub fn plot_frame(
     input: &Input,
     sensor: &host_sim::sensor::SensorConfig,
     params: &dbe_radar::Params,
     i: usize,
     out: &Path,
+    dynamic_range_db: f64,
 ) -> Result<Vec<PathBuf>> {
     let frame = input.frame(i)?;
     let dbe = CoreRunner::new(sensor, *params)?.process(&frame)?;
@@ -111,6 +117,7 @@ pub fn plot_frame(
                 columns: &velocity,
             },
             points: &dbe.points,
+            dynamic_range_db,
         },
     )?;
     let (top, side) = (
@@ -124,6 +131,10 @@ pub fn plot_frame(
 
 /// `dbe plot`.
 pub fn run(args: &PlotArgs) -> Result<()> {
+    let range = args.dynamic_range_db;
+    if !(3.0..=200.0).contains(&range) {
+        anyhow::bail!("--dynamic-range-db {range}: expected 3 to 200 dB");
+    }
     let opened = Input::open(&args.input, args.calib.as_deref(), args.board)?;
     if args.frame >= opened.input.len() {
         anyhow::bail!(
@@ -139,6 +150,7 @@ pub fn run(args: &PlotArgs) -> Result<()> {
         &params,
         args.frame,
         &args.out,
+        args.dynamic_range_db,
     )? {
         println!("{}", f.display());
     }

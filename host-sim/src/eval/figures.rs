@@ -170,7 +170,7 @@ pub(super) fn charts(e: &Evaluation) -> Vec<(String, Chart)> {
         out.push((
             format!("chamfer_{scene}.png"),
             Chart {
-                title: format!("Chamfer distance, {scene}"),
+                title: format!("Chamfer distance per frame, {scene}"),
                 x_label: "voxel size (m)".into(),
                 y_label: "Chamfer distance (m)".into(),
                 log_x: true,
