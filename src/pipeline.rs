@@ -108,15 +108,15 @@ pub struct Params {
     /// (spec §3 step 4, the weight of its 3-D direction on the full array) must lie within this
     /// many bins (circular, sub-bin offsets included) of the Doppler of its detection's azimuth
     /// beam, or the point is dropped (a detection left without a point is counted in
-    /// `FrameStats::detections_without_point`). A weight
-    /// that passes the detection's signal shows its tone; one that does not was steered at a
-    /// direction the signal does not come from (an elevation not of this target, or, on a real
-    /// uncalibrated array, a steering vector the target's phases do not match, which MVDR
-    /// cancels), and its strongest bin is noise. On the real TI corner-reflector capture such
-    /// points are the moving ones of a static scene: at α = 3 dB, 13 points of which 10 move
-    /// without the rule, the reflector and its two bounces, all static, with it; on the
-    /// simulated extended scenes it drops 14 % of the points at α = 3 dB and lowers the false
-    /// points per frame from 0.15 to 0.03 (`dbe eval`, defaults sweep). 1.5 bins (as the
+    /// `FrameStats::detections_without_point`). A weight that passes the detection's signal
+    /// shows its tone; one that does not was steered at a direction the signal does not come
+    /// from (an elevation not of this target, or, on a real uncalibrated array, a steering
+    /// vector the target's phases do not match, which MVDR cancels), and its strongest bin is
+    /// noise. On the real TI corner-reflector capture such points are the moving ones of a
+    /// static scene: at α = 3 dB, 13 points of which 10 move without the rule, the reflector
+    /// and its two bounces, all static, with it; on the simulated scenes it drops 14 % of the
+    /// points at α = 3 dB and lowers the false points per frame from 0.17 to 0.03 (`dbe eval`,
+    /// defaults sweep). 1.5 bins (as the
     /// coherent window) leaves half a bin for the error of each estimate. The rule also drops
     /// a second elevation peak whose target moves at another radial velocity than the one
     /// the azimuth beam shows (no detection of the evaluation's scenes has a second peak).
