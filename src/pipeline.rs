@@ -597,13 +597,10 @@ impl<
         if self.sub.is_empty() || !(window > 0.0) || !mine.is_finite() {
             return false;
         }
-        dopplers.iter().enumerate().any(|(m, &d)| {
-            // Beam Dopplers lie in −K/2 ..= K/2 (signed bin plus a sub-bin offset), so one
-            // wrap suffices for the circular distance. (No `%`: the f32 remainder links
-            // compiler_builtins' `fmodf`, whose unwind tables break the C API's host link.)
-            let gap = libm::fabsf(d - mine);
-            m != n && gap.min(libm::fabsf(K as f32 - gap)) < window
-        })
+        dopplers
+            .iter()
+            .enumerate()
+            .any(|(m, &d)| m != n && doppler_gap::<K>(d, mine) < window)
     }
 
     /// The Doppler (bins, with its sub-bin offset) of the azimuth Capon beam of bin `i` on the
@@ -630,17 +627,21 @@ impl<
     /// the compensated covariance is not positive definite: the test rejects only what it
     /// measured.
     fn doppler_ratio(&self, cov: &Matrix<M>, snap: &Snapshots<K, M>, d: f32, i: usize) -> f32 {
-        let mut r = *cov;
-        let (rot, i) = match self.params.tdm_compensation {
+        let (rot, i, line) = match self.params.tdm_compensation {
             true => {
+                // The climb's solver of the compensated line serves the beam too.
+                let mut r = *cov;
                 let c = self.compensate_tdm(&mut r, d, i);
-                (c.rotation, c.azimuth_bin)
+                (c.rotation, c.azimuth_bin, c.line)
             }
-            false => ([ONE; M], i),
+            false => (
+                [ONE; M],
+                i,
+                self.azimuth_capon(&leading_block(cov))
+                    .map(|(az, _, n)| (az, n)),
+            ),
         };
-        let (Some((az, _, n)), Some(steer)) =
-            (self.azimuth_capon(&leading_block(&r)), self.az_steer.get(i))
-        else {
+        let (Some((az, n)), Some(steer)) = (line, self.az_steer.get(i)) else {
             return f32::INFINITY;
         };
         let w = az.weight(&Self::line_part(steer, n));
@@ -658,9 +659,7 @@ impl<
         if !(window > 0.0) || !beam.is_finite() {
             return true;
         }
-        // Both lie in −K/2 ..= K/2: one wrap suffices (no f32 `%`, see `coherent`).
-        let gap = libm::fabsf(d - beam);
-        gap.min(libm::fabsf(K as f32 - gap)) <= window
+        doppler_gap::<K>(d, beam) <= window
     }
 
     /// Capon solver of the azimuth line's covariance (spatial smoothing and FB averaging if
@@ -830,13 +829,14 @@ impl<
     /// by it, and the azimuth re-estimated uphill on the compensated spectrum (at most
     /// `tdm_azimuth_search` bins).
     #[inline(always)]
-    fn compensate_tdm(&self, r: &mut Matrix<M>, d: f32, i: usize) -> Compensation<M> {
+    fn compensate_tdm(&self, r: &mut Matrix<M>, d: f32, i: usize) -> Compensation<M, AZ> {
         let rotation = tdm::rotation::<K, TX, M>(&self.layout.slot, d);
         rotate_rows(r, &rotation);
         let mut c = Compensation {
             rotation,
             azimuth_bin: i,
             azimuth_frac: None,
+            line: None,
         };
         if let Some((az, _, n)) = self.azimuth_capon(&leading_block(r)) {
             let i = self.climb_azimuth(&az, n, i);
@@ -847,6 +847,7 @@ impl<
                 power(i),
                 power(i + 1),
             ));
+            c.line = Some((az, n));
         }
         c
     }
@@ -874,13 +875,16 @@ impl<
 }
 
 /// What TDM compensation decided for one detection.
-struct Compensation<const M: usize> {
+struct Compensation<const M: usize, const AZ: usize> {
     /// Per-row rotation applied to the covariance (and to the slow time before Doppler).
     rotation: [Complex32; M],
     /// Azimuth bin after the climb on the compensated spectrum.
     azimuth_bin: usize,
     /// Sub-grid azimuth offset on the compensated spectrum (`None`: keep the map's).
     azimuth_frac: Option<f32>,
+    /// The compensated azimuth line's solver and the elements it spans (`None`: not positive
+    /// definite), as the climb used it.
+    line: Option<(Capon<AZ>, usize)>,
 }
 
 impl<
@@ -928,6 +932,14 @@ impl<
     fn detections(work: &Self::Workspace) -> &[Detection] {
         work.detections()
     }
+}
+
+/// The circular distance (bins, modulo `K`) of two Dopplers in `−K/2 ..= K/2` (a signed bin
+/// plus a sub-bin offset), for which one wrap suffices. (No `%`: the f32 remainder links
+/// compiler_builtins' `fmodf`, whose unwind tables break the C API's host link.)
+fn doppler_gap<const K: usize>(a: f32, b: f32) -> f32 {
+    let gap = libm::fabsf(a - b);
+    gap.min(libm::fabsf(K as f32 - gap))
 }
 
 /// `y[k] = Σ_m conj(w_m) · rot_m · x_m[k]` over the first `D` rows of `snap`.

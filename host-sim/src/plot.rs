@@ -31,6 +31,9 @@ pub const SIDE_SIZE: (u32, u32) = (1000, 500);
 /// Dynamic range of the maps' colour scale: each map's maximum is the top colour, values this
 /// many dB below it (or lower) the bottom colour.
 pub const DYNAMIC_RANGE_DB: f64 = 40.0;
+
+/// The colour scales [`plot_maps`] accepts, dB below each map's maximum.
+pub const DYNAMIC_RANGES_DB: core::ops::RangeInclusive<f64> = 3.0..=200.0;
 /// Colour of range bins the chain does not process (outside `Params::range_first ..=
 /// range_last`): the near-range band and the last bins.
 pub const UNPROCESSED_COLOUR: [u8; 3] = [215, 215, 215];
@@ -475,13 +478,17 @@ fn point_azimuth_deg(p: &PointRecord) -> f64 {
 /// Errors (naming `path`, nothing written): an empty map, rows of a length other than the
 /// column grid's, a grid that is not strictly increasing and finite, a power that is negative
 /// or not finite, maps of different range lengths, a `range_bin_m` that is not finite and
-/// positive, a dynamic range outside 3–200 dB, or a non-finite point.
+/// positive, a dynamic range outside [`DYNAMIC_RANGES_DB`], or a non-finite point.
 pub fn plot_maps(path: &Path, m: &MapsInput<'_>) -> Result<MapAxes, IoError> {
     let range_db = m.dynamic_range_db;
-    if !(3.0..=200.0).contains(&range_db) {
+    if !DYNAMIC_RANGES_DB.contains(&range_db) {
         return Err(IoError::invalid(
             path,
-            format!("dynamic range {range_db} dB; expected 3 to 200 dB"),
+            format!(
+                "dynamic range {range_db} dB; expected {} to {} dB",
+                DYNAMIC_RANGES_DB.start(),
+                DYNAMIC_RANGES_DB.end()
+            ),
         ));
     }
     if !(m.range_bin_m.is_finite() && m.range_bin_m > 0.0) {

@@ -131,9 +131,14 @@ pub fn plot_frame(
 
 /// `dbe plot`.
 pub fn run(args: &PlotArgs) -> Result<()> {
-    let range = args.dynamic_range_db;
-    if !(3.0..=200.0).contains(&range) {
-        anyhow::bail!("--dynamic-range-db {range}: expected 3 to 200 dB");
+    // Checked before anything is opened or written (`plot_maps` refuses it too, later).
+    let (range, allowed) = (args.dynamic_range_db, host_sim::plot::DYNAMIC_RANGES_DB);
+    if !allowed.contains(&range) {
+        anyhow::bail!(
+            "--dynamic-range-db {range}: expected {} to {} dB",
+            allowed.start(),
+            allowed.end()
+        );
     }
     let opened = Input::open(&args.input, args.calib.as_deref(), args.board)?;
     if args.frame >= opened.input.len() {

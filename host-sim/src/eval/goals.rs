@@ -5,8 +5,8 @@
 use super::names;
 use super::scenarios::{Pair, SCENES};
 use super::tables::{
-    mean, same, DefaultsRow, Evaluation, Goal, ResolutionRow, SceneRow, AZIMUTH_STEP_DEG,
-    ELEVATION_STEP_DEG, EXTENDED_SCENES,
+    mean, same, ChamferRow, DefaultsRow, Evaluation, Goal, ResolutionRow, SceneRow,
+    AZIMUTH_STEP_DEG, ELEVATION_STEP_DEG, EXTENDED_SCENES,
 };
 
 /// The recommendation rule, per parameter: among its values, keep those that add no false
@@ -85,14 +85,24 @@ pub fn recommend(rows: &[DefaultsRow]) -> Vec<(String, String)> {
         .collect()
 }
 
-/// Mean Chamfer accuracy term of `variant` over the extended scenes' cells, m.
-fn extended_accuracy(e: &Evaluation, variant: &str) -> Option<f64> {
+/// Mean of one Chamfer term (`term` of each row: accuracy or completeness) of `variant` over
+/// the extended scenes' cells, m.
+fn extended_term(
+    e: &Evaluation,
+    variant: &str,
+    term: fn(&ChamferRow) -> Option<f64>,
+) -> Option<f64> {
     mean(
         e.chamfer_all
             .iter()
             .filter(|c| c.variant == variant && c.scene != "moving_sensor")
-            .filter_map(|c| c.accuracy_m),
+            .filter_map(term),
     )
+}
+
+/// Mean Chamfer accuracy term of `variant` over the extended scenes' cells, m.
+fn extended_accuracy(e: &Evaluation, variant: &str) -> Option<f64> {
+    extended_term(e, variant, |c| c.accuracy_m)
 }
 
 /// Mean points per frame of `variant` over the extended scenes.
@@ -148,21 +158,14 @@ pub(super) fn goals(e: &Evaluation) -> Vec<Goal> {
         ));
     }
     let met = wins == cells.len() && !cells.is_empty();
+    // The accuracy terms serve this goal's reasons and the density goal below.
+    let (acc_dbe, acc_fft) = (
+        extended_accuracy(e, names::DBE),
+        extended_accuracy(e, names::FFT),
+    );
     if !met {
-        let acc_dbe = extended_accuracy(e, names::DBE);
-        let acc_fft = extended_accuracy(e, names::FFT);
-        let com_dbe = mean(
-            e.chamfer_all
-                .iter()
-                .filter(|c| c.variant == names::DBE && c.scene != "moving_sensor")
-                .filter_map(|c| c.completeness_m),
-        );
-        let com_fft = mean(
-            e.chamfer_all
-                .iter()
-                .filter(|c| c.variant == names::FFT && c.scene != "moving_sensor")
-                .filter_map(|c| c.completeness_m),
-        );
+        let com_dbe = extended_term(e, names::DBE, |c| c.completeness_m);
+        let com_fft = extended_term(e, names::FFT, |c| c.completeness_m);
         let ext = |v: &str| extended_points(e, v);
         let sens = |v: &str| {
             e.accuracy
@@ -205,12 +208,7 @@ pub(super) fn goals(e: &Evaluation) -> Vec<Goal> {
             fmt_opt(ext(names::FFT), 1),
         ));
         // The scene where the DBE chain falls furthest behind in points.
-        let points = |scene: &str, v: &str| {
-            e.scenes
-                .iter()
-                .find(|r| r.scene == scene && r.variant == v)
-                .map(|r| r.points_per_frame)
-        };
+        let points = |scene: &str, v: &str| e.scene_at(scene, v).map(|r| r.points_per_frame);
         let behind = SCENES[..EXTENDED_SCENES]
             .iter()
             .filter_map(|s| {
@@ -256,10 +254,6 @@ pub(super) fn goals(e: &Evaluation) -> Vec<Goal> {
     let (pts_dbe, pts_fft) = (
         extended_points(e, names::DBE),
         extended_points(e, names::FFT),
-    );
-    let (acc_dbe, acc_fft) = (
-        extended_accuracy(e, names::DBE),
-        extended_accuracy(e, names::FFT),
     );
     let noise_fp = e
         .noise
