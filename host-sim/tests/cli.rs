@@ -835,3 +835,49 @@ with open(sys.argv[1], "rb") as f:
     }
     Ok(())
 }
+
+/// `dbe simulate --realistic-surfaces`: the corridor gets floor ghosts (counted in the truth);
+/// a scene without a floor is refused before anything is written.
+#[test]
+fn simulate_with_realistic_surfaces() -> TestResult {
+    let tmp = tempfile::tempdir()?;
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let seq = tmp.path().join("corridor");
+    let text = ok(&[
+        "simulate",
+        "--scene",
+        s(&scenes.join("corridor.toml")),
+        "--frames",
+        "1",
+        "--realistic-surfaces",
+        "--out",
+        s(&seq),
+    ]);
+    assert!(text.contains("floor ghosts"), "{text}");
+    let truth: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(
+        seq.join("groundtruth/frame_0.json"),
+    )?)?;
+    let ghosts: u64 = truth["objects"]
+        .as_array()
+        .ok_or("objects")?
+        .iter()
+        .filter_map(|o| o["ghosts"].as_u64())
+        .sum();
+    assert!(ghosts > 0, "no ghosts in the corridor");
+
+    let bare = tmp.path().join("bare");
+    let err = fails(&[
+        "simulate",
+        "--scene",
+        s(&scenes.join("single_target.toml")),
+        "--realistic-surfaces",
+        "--out",
+        s(&bare),
+    ]);
+    assert!(
+        err.contains("--realistic-surfaces") && err.contains("plane_z_m"),
+        "{err}"
+    );
+    assert!(!bare.exists(), "nothing written");
+    Ok(())
+}

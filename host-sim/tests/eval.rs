@@ -259,6 +259,19 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
         }
     }
     assert!(md.contains("## Chamfer distance on sequence maps"));
+    // Realistic surfaces: every extended scene plain and realistic, both chains measured, and
+    // each comparison listed with the scenes where it holds.
+    assert!(md.contains("## Realistic surfaces: what changes"));
+    let rows = json["surfaces"].as_array().ok_or("no surfaces")?;
+    assert_eq!(rows.len(), EXTENDED_SCENES);
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(r["realistic"].as_bool(), Some(i % 2 == 1), "{r}");
+        assert!(r["points"][1].as_f64().is_some_and(|p| p > 0.0), "{r}");
+    }
+    let conclusions = json["surface_conclusions"]
+        .as_array()
+        .ok_or("no conclusions")?;
+    assert_eq!(conclusions.len(), 6);
     // Four point-cloud goals (issue 4), density (issue 10), four odometry goals (issue 9).
     assert_eq!(json["goals"].as_array().map(Vec::len), Some(9));
     assert_eq!(

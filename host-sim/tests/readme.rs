@@ -80,7 +80,7 @@ fn paper_cd(summary: &Value, tau: f64, key: &str) -> Result<f64, String> {
         .filter(|r| r["tau"].as_f64().is_some_and(|t| (t - tau).abs() < 1e-9))
         .filter_map(|r| r[key].as_f64())
         .collect();
-    if v.len() != 4 {
+    if v.len() != host_sim::eval::tables::EXTENDED_SCENES {
         return Err(format!(
             "{} extended scenes with {key} at τ = {tau}",
             v.len()
@@ -214,5 +214,42 @@ fn readme_odometry_table_is_the_committed_report() -> TestResult {
             "README lacks the report's line\n{line}"
         );
     }
+    Ok(())
+}
+
+/// README's sentence on realistic surfaces names, per comparison, the scenes where the
+/// committed report says it holds with them.
+#[test]
+fn readme_realistic_surface_verdicts_are_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let readme = read("README.md")?;
+    let flat = readme.split_whitespace().collect::<Vec<_>>().join(" ");
+    let conclusions = summary["surface_conclusions"]
+        .as_array()
+        .ok_or("summary.json has no surface_conclusions")?;
+    let scenes = |claim: &str| -> Result<String, String> {
+        let c = conclusions
+            .iter()
+            .find(|c| c["claim"].as_str().is_some_and(|s| s.starts_with(claim)))
+            .ok_or(format!("no conclusion {claim}"))?;
+        let names: Vec<&str> = c["realistic"]
+            .as_array()
+            .ok_or("no realistic list")?
+            .iter()
+            .filter_map(Value::as_str)
+            .collect();
+        Ok(names.join(", "))
+    };
+    let sentence = format!(
+        "With realistic surfaces the DBE chain gives at least as many points per frame as the FFT chain on: {}; a lower per-frame Chamfer distance on: {}; no more false points per frame on: {}; an accuracy term ≤ 0.8× the FFT chain's on: {}.",
+        scenes("DBE gives at least as many points")?,
+        scenes("DBE below FFT in per-frame Chamfer")?,
+        scenes("DBE gives no more false points")?,
+        scenes("DBE accuracy term")?,
+    );
+    assert!(
+        flat.contains(&sentence),
+        "README lacks the report's sentence\n{sentence}"
+    );
     Ok(())
 }

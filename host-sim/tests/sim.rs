@@ -1008,3 +1008,144 @@ fn scenes_serialise_back_to_toml_that_loads_to_the_same_scene() {
         corridor
     );
 }
+
+/// `[surfaces]`: the specular lobe scales each scatterer by the law of the module docs, edges
+/// and corners add their cross sections where a face they bound is seen, and the floor ghost
+/// is the mirror image at `Γ²` of the amplitude, moving with the mirrored velocity.
+#[test]
+fn realistic_surfaces_add_a_specular_lobe_edges_corners_and_floor_ghosts() {
+    let sensor = SensorConfig::coloradar();
+    let wall = r#"[[objects]]
+kind = "wall"
+origin = [8.0, 3.0, -1.0]
+edge_u = [0.0, -6.0, 0.0]
+edge_v = [0.0, 0.0, 2.0]
+reflectivity = 0.1
+density = 20.0
+"#;
+    let scatterers = |surfaces: &str, objects: &str| {
+        Simulation::new(&point_scene(surfaces, objects), &sensor)
+            .expect("valid")
+            .scatterers(0)
+    };
+    // σ of a scatterer from its amplitude: A = C·√σ / R² with C = 200.
+    let sigma = |s: &Scatterer| {
+        let r2: f64 = s.position.iter().map(|x| x * x).sum();
+        (s.amplitude * r2 / 200.0).powi(2)
+    };
+    let (plain, _) = scatterers("", wall);
+    assert_eq!(plain.len(), 243);
+
+    // Specular lobe: the same scatterers (same positions, phases), each scaled by
+    // (diffuse·cos²θ + specular·exp(−θ²/2w²)) / cos²θ.
+    let (lobe, _) = scatterers(
+        "[surfaces]\ndiffuse = 0.5\nspecular = 10.0\nspecular_width_deg = 4.0",
+        wall,
+    );
+    assert_eq!(lobe.len(), plain.len());
+    let w = 4f64.to_radians();
+    for (a, b) in plain.iter().zip(&lobe) {
+        assert_eq!((a.position, a.phase), (b.position, b.phase));
+        let r: f64 = a.position.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let c = a.position[0] / r; // the wall's normal is x
+        let theta = c.acos();
+        let law = (0.5 * c * c + 10.0 * (-theta * theta / (2.0 * w * w)).exp()) / (c * c);
+        assert!((sigma(b) / sigma(a) / law - 1.0).abs() < 1e-9);
+    }
+    // At 8 m a 6 m wide wall spans ±20.6°: within 0.5 m of its centre (θ ≤ 5°) the lobe makes
+    // it ≥ 0.5 + 10·e^(−25/32) = 5.1× brighter; beyond 2.5 m (θ ≥ 17°) the diffuse half is
+    // left (≤ 0.5 + 10·e^(−9) ≈ 0.5×).
+    let part = |s: &[Scatterer], inner: bool| {
+        s.iter()
+            .filter(|s| {
+                (s.position[1].abs() < 0.5) == inner && (s.position[1].abs() > 2.5) != inner
+            })
+            .map(sigma)
+            .sum::<f64>()
+    };
+    assert!(part(&lobe, true) > 5.0 * part(&plain, true));
+    assert!(part(&lobe, false) < 0.51 * part(&plain, false));
+
+    // Edges and corners of a rectangle: all of them seen (two-sided), after the surface
+    // scatterers, which stay as they were; Σσ = 0.1 m²/m × 16 m of perimeter + 4 × 1 m².
+    let (features, truth) = scatterers(
+        "[surfaces]\nedge_rcs_m2_per_m = 0.1\ncorner_rcs_m2 = 1.0",
+        wall,
+    );
+    assert_eq!(&features[..plain.len()], &plain[..]);
+    let added: f64 = features[plain.len()..].iter().map(sigma).sum();
+    assert!((added - (0.1 * 16.0 + 4.0)).abs() < 1e-9, "Σσ = {added}");
+    assert_eq!(truth.objects[0].scatterers, features.len());
+    assert_eq!(truth.objects[0].ghosts, 0);
+
+    // A box 6 m ahead shows only its front face (see the surface test above): the edges and
+    // corners of that face, nothing behind it. 1 m edges at density 30: 6 samples each.
+    let (boxed, _) = scatterers(
+        "[surfaces]\nedge_rcs_m2_per_m = 0.1\ncorner_rcs_m2 = 1.0",
+        "[[objects]]\nkind = \"box\"\ncenter = [6.0, 0.5, 0.0]\nsize = [1.0, 1.0, 1.0]\n",
+    );
+    assert_eq!(boxed.len(), 36 + 4 * 6 + 4);
+    assert!(boxed.iter().all(|s| (s.position[0] - 5.5).abs() < 1e-9));
+    let corners = boxed
+        .iter()
+        .filter(|s| (sigma(s) - 1.0).abs() < 1e-9)
+        .count();
+    assert_eq!(corners, 4);
+
+    // Floor ghost: a target at z = 0 over a floor at z = −1 has an image at z = −2, Γ² = 0.25
+    // of the amplitude a scatterer there would have, with the mirrored velocity; the floor's
+    // own scatterers lie on the mirror plane and have none.
+    let objects = r#"[[objects]]
+kind = "point"
+name = "t"
+position = [6.0, 0.0, 0.0]
+velocity = [-1.0, 0.0, 0.3]
+rcs_m2 = 4.0
+[[objects]]
+kind = "plane"
+name = "floor"
+origin = [1.0, -3.0, -1.0]
+edge_u = [10.0, 0.0, 0.0]
+edge_v = [0.0, 6.0, 0.0]
+reflectivity = 0.01
+density = 5.0
+"#;
+    let (ghosted, truth) = scatterers("[surfaces.multipath]\nreflection = 0.5", objects);
+    let (real, ghost) = (&ghosted[0], &ghosted[1]);
+    assert_eq!(real.position, [6.0, 0.0, 0.0]);
+    assert!((ghost.position[2] + 2.0).abs() < 1e-12 && (ghost.position[0] - 6.0).abs() < 1e-12);
+    let expected = 0.25 * 200.0 * 2.0 / 40.0;
+    assert!(
+        (ghost.amplitude - expected).abs() < 1e-12,
+        "{}",
+        ghost.amplitude
+    );
+    assert!((ghost.velocity[2] + 0.3).abs() < 1e-12 && (ghost.velocity[0] + 1.0).abs() < 1e-12);
+    assert_eq!(
+        (truth.objects[0].scatterers, truth.objects[0].ghosts),
+        (1, 1)
+    );
+    assert_eq!(truth.objects[1].ghosts, 0);
+    assert_eq!(truth.scatterers, ghosted.len());
+
+    // Bad values are refused with the key named.
+    for (surfaces, needle) in [
+        ("[surfaces]\nspecular = -1.0", "surfaces.specular"),
+        (
+            "[surfaces]\nspecular_width_deg = 0.0",
+            "surfaces.specular_width_deg",
+        ),
+        (
+            "[surfaces.multipath]\nreflection = 1.5",
+            "surfaces.multipath.reflection",
+        ),
+        ("[surfaces]\nspecularity = 1.0", "specularity"),
+    ] {
+        let e = Scene::from_toml_str(&format!("{surfaces}\n{objects}"), "bad").unwrap_err();
+        assert!(e.to_string().contains(needle), "{surfaces}: {e}");
+    }
+    let e = Scene::from_toml_str("[surfaces.multipath]\nreflection = 0.5\n", "bare").unwrap_err();
+    assert!(e.to_string().contains("plane_z_m"), "{e}");
+    let with_plane = "[surfaces.multipath]\nreflection = 0.5\nplane_z_m = -1.0\n";
+    assert!(Scene::from_toml_str(with_plane, "plane").is_ok());
+}

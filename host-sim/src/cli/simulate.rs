@@ -28,6 +28,10 @@ pub struct SimulateArgs {
     /// `imu/`.
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace the scene's `[surfaces]` with the realistic set of `dbe eval` (specular lobe,
+    /// bright edges and corners, floor-bounce ghosts); needs a horizontal rectangle as floor.
+    #[arg(long)]
+    pub realistic_surfaces: bool,
 }
 
 /// The scene named on the command line.
@@ -85,7 +89,13 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     if args.frames == 0 {
         anyhow::bail!("--frames 0: expected at least one frame");
     }
-    let scene = load(&args.scene)?;
+    let mut scene = load(&args.scene)?;
+    if args.realistic_surfaces {
+        scene.surfaces = sim::SurfaceModel::realistic();
+        scene
+            .validate()
+            .map_err(|e| anyhow::anyhow!("--realistic-surfaces on {}: {e}", args.scene))?;
+    }
     let sensor = match &args.calib {
         Some(dir) => load_calib(dir)?,
         None => SensorConfig::coloradar(),
@@ -96,11 +106,21 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     write_into(&staged, &args.out, &scene, &sensor, &frames)?;
     staged.commit()?;
     let scatterers: usize = frames.iter().map(|f| f.truth.scatterers).sum();
+    let ghosts: usize = frames
+        .iter()
+        .flat_map(|f| &f.truth.objects)
+        .map(|o| o.ghosts)
+        .sum();
     println!(
-        "scene `{}`: {} frames ({} scatterers per frame on average) → {}",
+        "scene `{}`: {} frames ({} scatterers per frame on average{}) → {}",
         scene.name,
         frames.len(),
         scatterers / frames.len(),
+        if ghosts > 0 {
+            format!(", {} of them floor ghosts", ghosts / frames.len())
+        } else {
+            String::new()
+        },
         args.out.display()
     );
     Ok(())

@@ -46,6 +46,7 @@ pub mod odometry;
 pub mod report;
 pub mod scenarios;
 pub mod snr;
+pub mod surfaces;
 pub mod tables;
 
 use std::time::Instant;

@@ -11,7 +11,7 @@
 use serde::Serialize;
 
 use super::bench::Bench;
-use super::scenarios::{par_run, SceneFile};
+use super::scenarios::{par_run, scene_file, SceneFile};
 use super::EvalError;
 use crate::cloud::PointRecord;
 use crate::io::StampedPose;
@@ -21,22 +21,26 @@ use crate::sim::{render::mix, scene_imu, Scene, Simulation};
 
 /// The simulated sequences, after the paper's four (hallways, outdoors, aspen, army).
 pub const SEQUENCES: [SceneFile; 4] = [
-    SceneFile {
-        name: "hallways",
-        text: include_str!("../../scenes/odometry/hallways.toml"),
-    },
-    SceneFile {
-        name: "outdoors",
-        text: include_str!("../../scenes/odometry/outdoors.toml"),
-    },
-    SceneFile {
-        name: "aspen",
-        text: include_str!("../../scenes/odometry/aspen.toml"),
-    },
-    SceneFile {
-        name: "army",
-        text: include_str!("../../scenes/odometry/army.toml"),
-    },
+    scene_file(
+        "hallways",
+        include_str!("../../scenes/odometry/hallways.toml"),
+        false,
+    ),
+    scene_file(
+        "outdoors",
+        include_str!("../../scenes/odometry/outdoors.toml"),
+        false,
+    ),
+    scene_file(
+        "aspen",
+        include_str!("../../scenes/odometry/aspen.toml"),
+        false,
+    ),
+    scene_file(
+        "army",
+        include_str!("../../scenes/odometry/army.toml"),
+        false,
+    ),
 ];
 
 /// Stream of the per-seed scene seeds.

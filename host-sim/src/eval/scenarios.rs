@@ -21,7 +21,7 @@ use super::EvalError;
 use crate::cloud::PointRecord;
 use crate::sensor::SensorConfig;
 use crate::sim::truth::look;
-use crate::sim::{try_render_frame, ObjectKind, Scatterer, Scene, Simulation};
+use crate::sim::{try_render_frame, ObjectKind, Scatterer, Scene, Simulation, SurfaceModel};
 
 /// A point within this distance (m) of a point target detects it; a point farther than this
 /// from every truth point (target or surface sample) is a false point ([`crate::score`]).
@@ -558,35 +558,73 @@ pub fn run_noise(
 /// A built-in scene file (embedded at compile time from `host-sim/scenes/`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SceneFile {
-    /// Scene name (the file stem).
+    /// Scene name (the file stem, `_realistic` appended for [`Self::realistic`]).
     pub name: &'static str,
     /// TOML text.
     pub text: &'static str,
+    /// Run with [`SurfaceModel::realistic`] (specular lobe, edges, corners, floor ghosts)
+    /// when the file sets no `[surfaces]` of its own.
+    pub realistic: bool,
 }
 
-/// The extended scenes of the Chamfer table (the paper's Table II layout), then the moving-
-/// sensor scene.
-pub const SCENES: [SceneFile; 5] = [
+impl SceneFile {
+    /// The scene, with the realistic surfaces when asked for.
+    pub fn scene(&self) -> Result<Scene, EvalError> {
+        let mut scene = Scene::from_toml_str(self.text, self.name)?;
+        if self.realistic && scene.surfaces.is_default() {
+            scene.surfaces = SurfaceModel::realistic();
+            scene
+                .validate()
+                .map_err(|problem| crate::sim::SimError::Scene {
+                    scene: self.name.to_string(),
+                    problem,
+                })?;
+        }
+        Ok(scene)
+    }
+
+    /// The scene file this one is the realistic-surface twin of (itself when plain).
+    pub fn base_name(&self) -> &'static str {
+        self.name
+            .strip_suffix(REALISTIC_SUFFIX)
+            .unwrap_or(self.name)
+    }
+}
+
+/// Suffix of the realistic-surface twin of an extended scene.
+pub const REALISTIC_SUFFIX: &str = "_realistic";
+
+/// A [`SceneFile`] (for constant tables).
+pub const fn scene_file(name: &'static str, text: &'static str, realistic: bool) -> SceneFile {
     SceneFile {
-        name: "corridor",
-        text: include_str!("../../scenes/corridor.toml"),
-    },
-    SceneFile {
-        name: "outdoor_poles_walls",
-        text: include_str!("../../scenes/outdoor_poles_walls.toml"),
-    },
-    SceneFile {
-        name: "cluttered_room",
-        text: include_str!("../../scenes/cluttered_room.toml"),
-    },
-    SceneFile {
-        name: "parking_lot",
-        text: include_str!("../../scenes/parking_lot.toml"),
-    },
-    SceneFile {
-        name: "moving_sensor",
-        text: include_str!("../../scenes/moving_sensor.toml"),
-    },
+        name,
+        text,
+        realistic,
+    }
+}
+
+const CORRIDOR: &str = include_str!("../../scenes/corridor.toml");
+const OUTDOOR: &str = include_str!("../../scenes/outdoor_poles_walls.toml");
+const CLUTTERED: &str = include_str!("../../scenes/cluttered_room.toml");
+const PARKING: &str = include_str!("../../scenes/parking_lot.toml");
+
+/// The extended scenes of the Chamfer table (the paper's Table II layout), then the same four
+/// with realistic surfaces (the first [`super::tables::EXTENDED_SCENES`] entries), then the
+/// moving-sensor scene.
+pub const SCENES: [SceneFile; 9] = [
+    scene_file("corridor", CORRIDOR, false),
+    scene_file("outdoor_poles_walls", OUTDOOR, false),
+    scene_file("cluttered_room", CLUTTERED, false),
+    scene_file("parking_lot", PARKING, false),
+    scene_file("corridor_realistic", CORRIDOR, true),
+    scene_file("outdoor_poles_walls_realistic", OUTDOOR, true),
+    scene_file("cluttered_room_realistic", CLUTTERED, true),
+    scene_file("parking_lot_realistic", PARKING, true),
+    scene_file(
+        "moving_sensor",
+        include_str!("../../scenes/moving_sensor.toml"),
+        false,
+    ),
 ];
 
 /// Metrics of one variant on one scene frame.
@@ -637,10 +675,7 @@ pub fn run_scenes(
 ) -> Result<Vec<SceneFrame>, EvalError> {
     let sims: Vec<(&'static str, Simulation)> = scenes
         .iter()
-        .map(|s| {
-            let scene = Scene::from_toml_str(s.text, s.name)?;
-            Ok((s.name, Simulation::new(&scene, &ctx.sensor)?))
-        })
+        .map(|s| Ok((s.name, Simulation::new(&s.scene()?, &ctx.sensor)?)))
         .collect::<Result<_, EvalError>>()?;
     let jobs: Vec<(usize, usize)> = (0..sims.len())
         .flat_map(|s| frame_indices(frames, span).into_iter().map(move |i| (s, i)))

@@ -16,8 +16,9 @@ use super::{names, sweep_name, EvalConfig, EvalError, SweepValue};
 pub const AZIMUTH_STEP_DEG: f64 = dbe_radar::presets::coloradar::AZIMUTH_STEP_DEG;
 /// Elevation grid step of the DBE chain, degrees (101 bins over ±25°).
 pub const ELEVATION_STEP_DEG: f64 = dbe_radar::presets::coloradar::ELEVATION_STEP_DEG;
-/// Number of extended scenes in the Chamfer goal (the first entries of [`SCENES`]).
-pub const EXTENDED_SCENES: usize = 4;
+/// Number of extended scenes in the Chamfer goal (the first entries of [`SCENES`]): four
+/// scenes, plain and with realistic surfaces.
+pub const EXTENDED_SCENES: usize = 8;
 
 /// Accuracy of one variant at one SNR.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -244,6 +245,11 @@ pub struct Evaluation {
     pub chamfer_map: Vec<super::maps::MapChamferRow>,
     /// Sizes of those maps and the ICP correction.
     pub map_sizes: Vec<super::maps::MapSize>,
+    /// The extended scenes with plain and realistic surfaces side by side
+    /// ([`super::surfaces`]).
+    pub surfaces: Vec<super::surfaces::SurfaceRow>,
+    /// Which chain comparisons hold on which scenes with each surface model.
+    pub surface_conclusions: Vec<super::surfaces::Conclusion>,
     /// Scenes: detection, false points, point-target accuracy.
     pub scenes: Vec<SceneRow>,
     /// CRB: closed form vs exact.
@@ -382,6 +388,8 @@ impl Evaluation {
             chamfer_paper,
             chamfer_map,
             map_sizes,
+            surfaces: Vec::new(),
+            surface_conclusions: Vec::new(),
             scenes: scene_rows,
             crb_check,
             defaults,
@@ -395,6 +403,8 @@ impl Evaluation {
             wall_time_s: 0.0,
             threads: rayon::current_num_threads(),
         };
+        eval.surfaces = super::surfaces::rows(&eval);
+        eval.surface_conclusions = super::surfaces::conclusions(&eval.surfaces);
         eval.goals = super::goals::goals(&eval);
         eval.headline = super::goals::headline(&eval);
         eval.wall_time_s = start.elapsed().as_secs_f64();

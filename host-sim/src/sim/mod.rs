@@ -35,7 +35,7 @@ use std::path::{Path, PathBuf};
 use rand::{rngs::StdRng, SeedableRng};
 
 pub use render::{check_sensor, render_frame, try_render_frame, Scatterer};
-pub use scene::{load_scene, Object, ObjectKind, Scene};
+pub use scene::{load_scene, Multipath, Object, ObjectKind, Scene, SurfaceModel};
 pub use truth::{write_truth, FrameTruth, ObjectTruth, SensorPose};
 
 use crate::frame::AdcFrame;
@@ -168,11 +168,13 @@ impl Simulation {
             &self.scene.field_of_view,
             self.max_range_m,
             self.scene.occlusion,
+            world::Scattering::of(&self.scene),
+            self.scene.radar_constant,
             &self.objects,
         );
         let mut scatterers = Vec::new();
         let objects = (0..self.objects.len())
-            .map(|id| view.place(id, self.scene.radar_constant, &mut scatterers))
+            .map(|id| view.place(id, &mut scatterers))
             .collect();
         let truth = FrameTruth {
             index,

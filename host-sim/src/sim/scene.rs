@@ -33,14 +33,39 @@
 //! `σ_i = reflectivity · dA · cos^p(θ_i)` (`reflectivity` is σ⁰ in m²/m², θ_i the incidence
 //! angle, `p = incidence_exponent`, 2 = Lambert's law for radar). Random phases add in power,
 //! so the expected power of a surface patch is `Σ σ_i = σ⁰ · area · cos^p` whatever the
-//! sampling density: the density changes the speckle, not the brightness. The coherent
-//! specular flash of a large flat plate at normal incidence is not modelled.
+//! sampling density: the density changes the speckle, not the brightness.
+//!
+//! # Realistic surfaces (`[surfaces]`, all off by default)
+//!
+//! Real walls are mostly specular, their edges and corners bright, and a floor doubles what
+//! stands on it. The scene's `[surfaces]` table ([`SurfaceModel`]) adds, for every surface:
+//!
+//! - a specular lobe beside the diffuse floor:
+//!   `σ⁰(θ) = reflectivity · (diffuse · cos^p θ + specular · exp(−θ² / 2w²))`, `w =
+//!   specular_width_deg` (a rough wall's lobe: the scatterers keep independent phases, so the
+//!   lobe adds power, not the coherent flash of a polished plate);
+//! - line scatterers along every edge of a rectangle or box (`edge_rcs_m2_per_m`, spaced like
+//!   the surface's scatterers) and a point scatterer at every vertex (`corner_rcs_m2`), seen
+//!   when a face they bound faces the radar (rectangles: always) and nothing else hides them;
+//! - `[surfaces.multipath]`: the floor-bounce ghost by the image method. Every scatterer above
+//!   the horizontal plane `z = plane_z_m` (default: the lowest horizontal rectangle of the
+//!   scene) gets an image mirrored in it, with the amplitude of a scatterer there times `Γ²`
+//!   (`Γ = reflection`: the path radar → floor → scatterer → floor → radar bounces twice, each
+//!   bounce `−Γ`, so the ghost keeps the scatterer's phase). The image moves with the mirrored
+//!   velocity. The two one-bounce paths
+//!   (radar → scatterer → floor → radar and back) are not modelled; neither is anything the
+//!   ghost path would cross, nor whether the floor rectangle extends under the bounce point.
+//!
+//! Ghosts, edges and corners carry no extra ground truth: edges and corners lie on the surfaces
+//! already sampled, and a ghost is a false point by construction, as in a real recording
+//! scored against LiDAR. [`SurfaceModel::realistic`] is the set `dbe eval` uses.
 //!
 //! A scatterer or ground-truth point is seen when it is inside the field of view at the frame
 //! start (`x > 0`, |azimuth| ≤ `azimuth_deg`, |elevation| ≤ `elevation_deg`,
 //! `min_range_m ≤ R ≤ max_range_m`), faces the radar (rectangles are two-sided; boxes and poles
 //! are solids seen from outside, a pole's caps are not sampled) and, when `occlusion` is on,
-//! no other rectangle, box or pole blocks the line of sight. Multipath is not modelled.
+//! no other rectangle, box or pole blocks the line of sight. Multipath is modelled only as the
+//! optional floor ghost above.
 
 use std::path::Path;
 
@@ -90,6 +115,10 @@ pub struct Scene {
     /// The simulated IMU.
     #[serde(default)]
     pub imu: ImuSpec,
+    /// Realistic-surface options: specular lobe, edges, corners, floor multipath (off by
+    /// default; see the module docs).
+    #[serde(default, skip_serializing_if = "SurfaceModel::is_default")]
+    pub surfaces: SurfaceModel,
     /// The objects, in `[[objects]]` tables; an object's id is its index here.
     #[serde(default)]
     pub objects: Vec<Object>,
@@ -127,6 +156,112 @@ pub struct Rig {
 impl Rig {
     fn is_default(&self) -> bool {
         *self == Self::default()
+    }
+}
+
+/// How surfaces scatter beyond the diffuse `cos^p` law (module docs, "Realistic surfaces").
+/// The default is exactly the diffuse model: no lobe, edges, corners or ghosts.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SurfaceModel {
+    /// Scale of the diffuse `cos^p` term (default 1).
+    #[serde(default = "default_one")]
+    pub diffuse: f64,
+    /// Specular lobe at normal incidence, in units of the surface's `reflectivity` (default 0).
+    #[serde(default)]
+    pub specular: f64,
+    /// Standard deviation of the Gaussian specular lobe in incidence angle, degrees (default 5).
+    #[serde(default = "default_lobe_deg")]
+    pub specular_width_deg: f64,
+    /// Cross section per metre of every rectangle and box edge, m²/m (default 0).
+    #[serde(default)]
+    pub edge_rcs_m2_per_m: f64,
+    /// Cross section of every rectangle and box vertex, m² (default 0).
+    #[serde(default)]
+    pub corner_rcs_m2: f64,
+    /// Floor-bounce ghosts (default none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub multipath: Option<Multipath>,
+}
+
+/// The floor of [`SurfaceModel::multipath`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Multipath {
+    /// Amplitude reflection coefficient `|Γ|` of the floor, 0..=1.
+    pub reflection: f64,
+    /// Height of the mirror plane in the world, m (default: the lowest horizontal rectangle).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plane_z_m: Option<f64>,
+}
+
+fn default_one() -> f64 {
+    1.0
+}
+fn default_lobe_deg() -> f64 {
+    5.0
+}
+
+impl Default for SurfaceModel {
+    fn default() -> Self {
+        Self {
+            diffuse: 1.0,
+            specular: 0.0,
+            specular_width_deg: default_lobe_deg(),
+            edge_rcs_m2_per_m: 0.0,
+            corner_rcs_m2: 0.0,
+            multipath: None,
+        }
+    }
+}
+
+impl SurfaceModel {
+    /// The realistic set of `dbe eval`: the diffuse term 3 dB down, a specular lobe 10 dB
+    /// above it at normal incidence (5° wide), edges of 0.1 m²/m (a 2.5 m wall edge is 7 dB
+    /// above the wall's own patch in one resolution cell at 5 m), corners of 1 m² and a floor
+    /// with `|Γ| = 0.6` (ghosts 9 dB below their scatterer at equal range).
+    pub fn realistic() -> Self {
+        Self {
+            diffuse: 0.5,
+            specular: 10.0,
+            specular_width_deg: 5.0,
+            edge_rcs_m2_per_m: 0.1,
+            corner_rcs_m2: 1.0,
+            multipath: Some(Multipath {
+                reflection: 0.6,
+                plane_z_m: None,
+            }),
+        }
+    }
+
+    /// Whether this is the plain diffuse model.
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        non_negative("surfaces.diffuse", self.diffuse)?;
+        non_negative("surfaces.specular", self.specular)?;
+        in_range(
+            "surfaces.specular_width_deg",
+            self.specular_width_deg,
+            0.0,
+            90.0,
+        )?;
+        non_negative("surfaces.edge_rcs_m2_per_m", self.edge_rcs_m2_per_m)?;
+        non_negative("surfaces.corner_rcs_m2", self.corner_rcs_m2)?;
+        if let Some(m) = &self.multipath {
+            if !(0.0..=1.0).contains(&m.reflection) {
+                return Err(format!(
+                    "surfaces.multipath.reflection must be in [0, 1], got {}",
+                    m.reflection
+                ));
+            }
+            if let Some(z) = m.plane_z_m {
+                finite("surfaces.multipath.plane_z_m", z)?;
+            }
+        }
+        Ok(())
     }
 }
 
@@ -478,6 +613,14 @@ impl Scene {
         self.rig.radar.validate("rig.radar")?;
         self.rig.imu.validate("rig.imu")?;
         self.imu.validate()?;
+        self.surfaces.validate()?;
+        if self.surfaces.multipath.is_some() && self.floor_z_m().is_none() {
+            return Err(
+                "surfaces.multipath: the scene has no horizontal rectangle to bounce \
+                        on; give plane_z_m"
+                    .into(),
+            );
+        }
         let mut names = std::collections::HashSet::new();
         let (mut scatterers, mut truth) = (0.0, 0.0);
         for (id, object) in self.objects.iter().enumerate() {
@@ -505,6 +648,23 @@ impl Scene {
             ));
         }
         Ok(())
+    }
+
+    /// Height of the multipath mirror plane: `surfaces.multipath.plane_z_m`, else the lowest
+    /// horizontal rectangle (both edges in the x–y plane); `None` without multipath or floor.
+    pub fn floor_z_m(&self) -> Option<f64> {
+        let m = self.surfaces.multipath.as_ref()?;
+        m.plane_z_m.or_else(|| {
+            self.objects
+                .iter()
+                .filter_map(|o| match o {
+                    Object::Rectangle(r) if r.edge_u[2] == 0.0 && r.edge_v[2] == 0.0 => {
+                        Some(r.origin[2])
+                    }
+                    _ => None,
+                })
+                .reduce(f64::min)
+        })
     }
 
     fn validate_trajectory(&self) -> Result<(), String> {
@@ -682,6 +842,7 @@ impl Scene {
             },
             rig: Rig::default(),
             imu: ImuSpec::default(),
+            surfaces: SurfaceModel::default(),
             objects: vec![
                 corner("corner_4m", [4.0, 0.8, 0.0], 10.0),
                 corner("corner_7m_right_up", [7.0, -2.5, 1.0], 20.0),

@@ -98,8 +98,11 @@ pub struct ObjectTruth {
     pub radial_velocity_mps: f64,
     /// Point target: inside the field of view and not hidden; surface: any point visible.
     pub visible: bool,
-    /// Scatterers this object contributed to the frame.
+    /// Scatterers this object contributed to the frame (its floor ghosts not counted).
     pub scatterers: usize,
+    /// Floor-bounce ghosts of those scatterers (`[surfaces.multipath]`), rendered as well.
+    #[serde(default)]
+    pub ghosts: usize,
     /// Visible surface points, m, rounded to 1 mm (empty for point targets).
     pub surface_points: Vec<[f64; 3]>,
 }

@@ -7,11 +7,30 @@ use nalgebra::Vector3;
 use rand::{rngs::StdRng, Rng, SeedableRng};
 
 use super::render::{mix, Scatterer};
-use super::scene::{norm, FieldOfView, Object, ObjectKind, Pose, Scene, SurfaceParams};
+use super::scene::{
+    norm, FieldOfView, Object, ObjectKind, Pose, Scene, SurfaceModel, SurfaceParams,
+};
 use super::truth::{look, ObjectTruth};
 
 /// Stream of the surface-sampling generators (scatterer positions and phases).
 const SURFACE_STREAM: u64 = 0x5355_5246;
+/// Stream of the edge and corner generators (their own, so that switching them on leaves the
+/// surface scatterers as they were).
+const FEATURE_STREAM: u64 = 0x4544_4745;
+
+/// An edge or corner scatterer ([`SurfaceModel`]), at time 0 in the world frame.
+#[derive(Clone, Debug)]
+pub(crate) struct Feature {
+    /// Position, m.
+    pub p: [f64; 3],
+    /// Outward normals of the faces it bounds; seen when any of them faces the radar (empty:
+    /// a two-sided rectangle's, always).
+    pub faces: Vec<[f64; 3]>,
+    /// Cross section, m².
+    pub sigma: f64,
+    /// Phase φ0, rad.
+    pub phase: f64,
+}
 
 /// A sample of a surface at time 0 in the world frame.
 #[derive(Clone, Copy, Debug)]
@@ -75,6 +94,8 @@ pub(crate) struct Prepared {
     /// Rectangles scatter from both faces.
     pub two_sided: bool,
     pub scatterers: Vec<Sample>,
+    /// Edges and corners (empty unless the scene's [`SurfaceModel`] asks for them).
+    pub features: Vec<Feature>,
     pub truth: Vec<Sample>,
     pub shape: Shape,
 }
@@ -87,6 +108,10 @@ pub(crate) fn prepare(scene: &Scene) -> Vec<Prepared> {
         .enumerate()
         .map(|(id, object)| {
             let mut rng = StdRng::seed_from_u64(mix(mix(scene.seed, SURFACE_STREAM), id as u64));
+            let mut features = FeatureSampler::new(
+                &scene.surfaces,
+                mix(mix(scene.seed, FEATURE_STREAM), id as u64),
+            );
             let mut prepared = Prepared {
                 name: object.name(id),
                 kind: object.kind(),
@@ -96,6 +121,7 @@ pub(crate) fn prepare(scene: &Scene) -> Vec<Prepared> {
                 surface: object.surface(),
                 two_sided: false,
                 scatterers: Vec::new(),
+                features: Vec::new(),
                 truth: Vec::new(),
                 shape: Shape::Point,
             };
@@ -129,6 +155,17 @@ pub(crate) fn prepare(scene: &Scene) -> Vec<Prepared> {
                     };
                     face.sample(o.density, &mut rng, &mut prepared.scatterers);
                     face.grid(spacing, &mut prepared.truth);
+                    let corners = [
+                        o.origin,
+                        add(o.origin, o.edge_u),
+                        add(add(o.origin, o.edge_u), o.edge_v),
+                        add(o.origin, o.edge_v),
+                    ];
+                    for k in 0..4 {
+                        let (a, b) = (corners[k], corners[(k + 1) % 4]);
+                        features.edge(a, b, o.density, &[], &mut prepared.features);
+                        features.corner(a, &[], &mut prepared.features);
+                    }
                 }
                 Object::Cuboid(o) => {
                     let (sin, cos) = o.yaw_deg.to_radians().sin_cos();
@@ -155,6 +192,37 @@ pub(crate) fn prepare(scene: &Scene) -> Vec<Prepared> {
                             };
                             face.sample(o.density, &mut rng, &mut prepared.scatterers);
                             face.grid(spacing, &mut prepared.truth);
+                        }
+                    }
+                    // Vertex `s` sits at centre + Σ s_a·half_a·axis_a; an edge joins two vertices
+                    // differing in one sign, and bounds the two faces of its other two signs.
+                    let vertex = |sg: [f64; 3]| -> [f64; 3] {
+                        std::array::from_fn(|i| {
+                            o.center[i] + (0..3).map(|a| sg[a] * half[a] * axes[a][i]).sum::<f64>()
+                        })
+                    };
+                    let normal = |a: usize, sign: f64| axes[a].map(|x| sign * x);
+                    for code in 0..8u32 {
+                        let sg: [f64; 3] =
+                            std::array::from_fn(|a| if code >> a & 1 == 1 { 1.0 } else { -1.0 });
+                        let faces: Vec<[f64; 3]> = (0..3).map(|a| normal(a, sg[a])).collect();
+                        features.corner(vertex(sg), &faces, &mut prepared.features);
+                        for a in 0..3 {
+                            if sg[a] < 0.0 {
+                                let mut other = sg;
+                                other[a] = 1.0;
+                                let faces: Vec<[f64; 3]> = (0..3)
+                                    .filter(|&b| b != a)
+                                    .map(|b| normal(b, sg[b]))
+                                    .collect();
+                                features.edge(
+                                    vertex(sg),
+                                    vertex(other),
+                                    o.density,
+                                    &faces,
+                                    &mut prepared.features,
+                                );
+                            }
                         }
                     }
                 }
@@ -205,6 +273,64 @@ fn pole_sample(base: [f64; 3], radius: f64, a: f64, h: f64, area: f64, phase: f6
         n: [c, s, 0.0],
         area,
         phase,
+    }
+}
+
+/// Samples the edges and corners of one object ([`SurfaceModel`]); does nothing for the
+/// parts the model leaves at 0.
+struct FeatureSampler {
+    edge_rcs_m2_per_m: f64,
+    corner_rcs_m2: f64,
+    rng: StdRng,
+}
+
+impl FeatureSampler {
+    fn new(model: &SurfaceModel, seed: u64) -> Self {
+        Self {
+            edge_rcs_m2_per_m: model.edge_rcs_m2_per_m,
+            corner_rcs_m2: model.corner_rcs_m2,
+            rng: StdRng::seed_from_u64(seed),
+        }
+    }
+
+    /// Line scatterers on the segment `a`–`b`, one per cell of side ≤ 1/√density (the
+    /// surface's own spacing), each standing for its cell's length.
+    fn edge(
+        &mut self,
+        a: [f64; 3],
+        b: [f64; 3],
+        density: f64,
+        faces: &[[f64; 3]],
+        out: &mut Vec<Feature>,
+    ) {
+        if self.edge_rcs_m2_per_m <= 0.0 {
+            return;
+        }
+        let d = sub(b, a);
+        let n = cells(norm(d), 1.0 / density.sqrt());
+        let sigma = self.edge_rcs_m2_per_m * norm(d) / n as f64;
+        for i in 0..n {
+            let s = (i as f64 + self.rng.gen::<f64>()) / n as f64;
+            out.push(Feature {
+                p: add(a, d.map(|x| x * s)),
+                faces: faces.to_vec(),
+                sigma,
+                phase: self.rng.gen::<f64>() * TAU,
+            });
+        }
+    }
+
+    /// A point scatterer at vertex `p`.
+    fn corner(&mut self, p: [f64; 3], faces: &[[f64; 3]], out: &mut Vec<Feature>) {
+        if self.corner_rcs_m2 <= 0.0 {
+            return;
+        }
+        out.push(Feature {
+            p,
+            faces: faces.to_vec(),
+            sigma: self.corner_rcs_m2,
+            phase: self.rng.gen::<f64>() * TAU,
+        });
     }
 }
 
@@ -263,6 +389,52 @@ impl Face {
 /// Distance before a line-of-sight endpoint within which nothing counts as blocking, m.
 const OCCLUSION_MARGIN_M: f64 = 1e-3;
 
+/// The scene-wide scattering law of [`SurfaceModel`], ready for [`View::place`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Scattering {
+    diffuse: f64,
+    specular: f64,
+    /// `1 / (2 w²)` of the specular lobe, rad⁻².
+    lobe: f64,
+    /// Mirror plane height (m) and ghost amplitude factor `Γ²`.
+    ghost: Option<(f64, f64)>,
+}
+
+impl Scattering {
+    pub(crate) fn of(scene: &Scene) -> Self {
+        let m = &scene.surfaces;
+        let w = m.specular_width_deg.to_radians();
+        Self {
+            diffuse: m.diffuse,
+            specular: m.specular,
+            lobe: 0.5 / (w * w),
+            ghost: m
+                .multipath
+                .as_ref()
+                .zip(scene.floor_z_m())
+                .map(|(mp, z)| (z, mp.reflection * mp.reflection)),
+        }
+    }
+
+    /// `σ⁰(θ) / reflectivity` at incidence cosine `c` for the `cos^p` exponent `p`.
+    fn law(&self, c: f64, p: f64) -> f64 {
+        let diffuse = self.diffuse * c.powf(p);
+        if self.specular == 0.0 {
+            return diffuse;
+        }
+        let theta = c.min(1.0).acos();
+        diffuse + self.specular * (-self.lobe * theta * theta).exp()
+    }
+}
+
+/// What a scatterer returns: a cross section (amplitude `radar_constant · √σ / R²`) or a fixed
+/// amplitude.
+#[derive(Clone, Copy, Debug)]
+enum Strength {
+    Rcs(f64),
+    Amplitude(f64),
+}
+
 /// The world seen from one sensor pose at one instant.
 pub(crate) struct View<'a> {
     /// The radar's kinematic state.
@@ -273,16 +445,21 @@ pub(crate) struct View<'a> {
     sin_az: f64,
     sin_el: f64,
     occlusion: bool,
+    scattering: Scattering,
+    radar_constant: f64,
     objects: &'a [Prepared],
 }
 
 impl<'a> View<'a> {
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         pose: Pose,
         time_s: f64,
         fov: &FieldOfView,
         max_range: f64,
         occlusion: bool,
+        scattering: Scattering,
+        radar_constant: f64,
         objects: &'a [Prepared],
     ) -> Self {
         Self {
@@ -293,6 +470,8 @@ impl<'a> View<'a> {
             sin_az: fov.azimuth_deg.to_radians().sin(),
             sin_el: fov.elevation_deg.to_radians().sin(),
             occlusion,
+            scattering,
+            radar_constant,
             objects,
         }
     }
@@ -353,34 +532,66 @@ impl<'a> View<'a> {
         (c > 0.0).then_some(c)
     }
 
-    /// Scatterers and ground truth of object `id`; `radar_constant` scales RCS to LSB.
-    pub(crate) fn place(
+    /// Emit the scatterer at world position `w` (already known to be seen) moving with world
+    /// velocity `v`, and its floor ghost when the scene has one; returns the ghosts emitted.
+    fn emit(
         &self,
-        id: usize,
-        radar_constant: f64,
+        w: [f64; 3],
+        v: [f64; 3],
+        strength: Strength,
+        phase: f64,
         out: &mut Vec<Scatterer>,
-    ) -> ObjectTruth {
+    ) -> usize {
+        let amplitude = |p: [f64; 3]| match strength {
+            Strength::Rcs(sigma) => self.radar_constant * sigma.sqrt() / dot(p, p),
+            Strength::Amplitude(a) => a,
+        };
+        let mut push = |w: [f64; 3], v: [f64; 3], gain: f64| {
+            let p = self.to_radar(w);
+            let (velocity, acceleration) = self.relative_motion(v, p);
+            out.push(Scatterer {
+                position: p,
+                velocity,
+                acceleration,
+                amplitude: gain * amplitude(p),
+                phase,
+            });
+            p
+        };
+        push(w, v, 1.0);
+        let Some((z, gain)) = self.scattering.ghost else {
+            return 0;
+        };
+        if !(w[2] > z && self.pose.position.z > z && gain > 0.0) {
+            return 0;
+        }
+        let image = [w[0], w[1], 2.0 * z - w[2]];
+        if !self.in_fov(self.to_radar(image)) {
+            return 0;
+        }
+        push(image, [v[0], v[1], -v[2]], gain);
+        1
+    }
+
+    /// Scatterers (with their ghosts) and ground truth of object `id`.
+    pub(crate) fn place(&self, id: usize, out: &mut Vec<Scatterer>) -> ObjectTruth {
         let o = &self.objects[id];
         let off = o.velocity.map(|v| v * self.time_s);
         let center_w = add(o.center, off);
         let center = self.to_radar(center_w);
-        let (velocity, acceleration) = self.relative_motion(o.velocity, center);
+        let (velocity, _) = self.relative_motion(o.velocity, center);
         let before = out.len();
+        let mut ghosts = 0;
         let mut surface_points = Vec::new();
         let visible;
         if let Some(point) = o.point {
             visible = self.in_fov(center) && !self.occluded(center_w, id);
             if visible {
-                let r2 = dot(center, center);
-                out.push(Scatterer {
-                    position: center,
-                    velocity,
-                    acceleration,
-                    amplitude: point.amplitude.unwrap_or_else(|| {
-                        radar_constant * point.rcs_m2.unwrap_or(0.0).sqrt() / r2
-                    }),
-                    phase: point.phase,
-                });
+                let strength = match point.amplitude {
+                    Some(a) => Strength::Amplitude(a),
+                    None => Strength::Rcs(point.rcs_m2.unwrap_or(0.0)),
+                };
+                ghosts += self.emit(center_w, o.velocity, strength, point.phase, out);
             }
         } else {
             let params = o.surface.unwrap_or(SurfaceParams {
@@ -390,8 +601,7 @@ impl<'a> View<'a> {
             });
             for s in &o.scatterers {
                 let w = add(s.p, off);
-                let p = self.to_radar(w);
-                if !self.in_fov(p) {
+                if !self.in_fov(self.to_radar(w)) {
                     continue;
                 }
                 let Some(c) = self.incidence(w, s.n, o.two_sided) else {
@@ -400,15 +610,20 @@ impl<'a> View<'a> {
                 if self.occluded(w, id) {
                     continue;
                 }
-                let sigma = params.reflectivity * s.area * c.powf(params.incidence_exponent);
-                let (velocity, acceleration) = self.relative_motion(o.velocity, p);
-                out.push(Scatterer {
-                    position: p,
-                    velocity,
-                    acceleration,
-                    amplitude: radar_constant * sigma.sqrt() / dot(p, p),
-                    phase: s.phase,
-                });
+                let sigma = params.reflectivity
+                    * s.area
+                    * self.scattering.law(c, params.incidence_exponent);
+                ghosts += self.emit(w, o.velocity, Strength::Rcs(sigma), s.phase, out);
+            }
+            for f in &o.features {
+                let w = add(f.p, off);
+                let faces = f.faces.is_empty()
+                    || f.faces
+                        .iter()
+                        .any(|&n| self.incidence(w, n, false).is_some());
+                if faces && self.in_fov(self.to_radar(w)) && !self.occluded(w, id) {
+                    ghosts += self.emit(w, o.velocity, Strength::Rcs(f.sigma), f.phase, out);
+                }
             }
             for s in &o.truth {
                 let w = add(s.p, off);
@@ -436,7 +651,8 @@ impl<'a> View<'a> {
             elevation_deg: l.elevation_deg,
             radial_velocity_mps: l.radial_velocity_mps,
             visible,
-            scatterers: out.len() - before,
+            scatterers: out.len() - before - ghosts,
+            ghosts,
             surface_points,
         }
     }
