@@ -747,6 +747,20 @@ pub fn write_budget(layout: &Layout, budget: &Budget) -> Result<Vec<PathBuf>, Fi
     Ok(changed)
 }
 
+/// Whether two `qemu-system-arm --version` lines name the same upstream QEMU: equal up to the
+/// first space-separated token after "version" (`7.2.22`), whatever the distribution's package
+/// revision in parentheses (Debian rebuilds the same source as `…+b2`, `…+b3`, and a fresh CI
+/// machine gets whichever is current). Instruction counts under `-icount` follow the upstream
+/// translator; a different upstream version is still a difference.
+pub fn same_qemu(a: &str, b: &str) -> bool {
+    let upstream = |v: &str| -> Option<String> {
+        let mut words = v.split_whitespace();
+        words.by_ref().find(|w| *w == "version")?;
+        words.next().map(str::to_string)
+    };
+    a == b || upstream(a).is_some_and(|x| Some(x) == upstream(b))
+}
+
 /// Differences between the committed budget and a measured one, one line each; empty when
 /// `docs/budget.json` and the block are up to date.
 pub fn stale(layout: &Layout, measured: Option<&Budget>) -> Result<Vec<String>, FirmwareError> {
@@ -760,10 +774,14 @@ pub fn stale(layout: &Layout, measured: Option<&Budget>) -> Result<Vec<String>, 
         }
     };
     // Flash within FLASH_TOLERANCE_BYTES of the committed figure is the same build laid out
-    // differently (see the constant); compare everything else exactly.
+    // differently (see the constant), and a QEMU of the same upstream version is the same
+    // emulator (see `same_qemu`); compare everything else exactly.
     let adjusted = measured.map(|m| {
         let mut m = m.clone();
         if let Some(old) = committed.as_ref() {
+            if same_qemu(&m.qemu, &old.qemu) {
+                m.qemu = old.qemu.clone();
+            }
             for (p, q) in m.presets.iter_mut().zip(old.presets.iter()) {
                 if p.preset == q.preset
                     && p.flash_bytes.abs_diff(q.flash_bytes) <= FLASH_TOLERANCE_BYTES

@@ -306,3 +306,18 @@ fn thousands_separators() {
     assert_eq!(thousands(1_000), "1,000");
     assert_eq!(thousands(1_572_864), "1,572,864");
 }
+
+#[test]
+fn a_distribution_rebuild_of_one_qemu_is_the_same_emulator() {
+    use crate::budget::same_qemu;
+    let b2 = "QEMU emulator version 7.2.22 (Debian 1:7.2+dfsg-7+deb12u18+b2)";
+    let b3 = "QEMU emulator version 7.2.22 (Debian 1:7.2+dfsg-7+deb12u18+b3)";
+    assert!(same_qemu(b2, b3));
+    assert!(same_qemu("", ""));
+    assert!(!same_qemu(
+        b2,
+        "QEMU emulator version 8.2.2 (Debian 1:8.2.2+ds-0ubuntu1)"
+    ));
+    assert!(!same_qemu(b2, ""));
+    assert!(!same_qemu("no version here", "no version there"));
+}
