@@ -335,6 +335,8 @@ pub struct Dbe<
     az_steer: [[Complex32; M]; NAZ],
     /// `exp(−j·κ·ν_j·el_m)` for every row (1 on the azimuth line).
     el_steer: [[Complex32; M]; NEL],
+    /// Line phase step per unit μ, `κ·(az_1 − az_0)` (rad): `φ = line_phase_per_mu · μ`.
+    line_phase_per_mu: f32,
     range_bin_m: f32,
     doppler_bin_mps: f32,
     /// The centro-symmetric sub-array for coherent targets (empty when the array has none).
@@ -375,6 +377,7 @@ impl<
             el_nu: [0.0; NEL],
             az_steer: [[ZERO; M]; NAZ],
             el_steer: [[ZERO; M]; NEL],
+            line_phase_per_mu: 0.0,
             range_bin_m: 0.0,
             doppler_bin_mps: 0.0,
             sub: SubArray::NONE,
@@ -414,6 +417,10 @@ impl<
                 *a = Complex32::from_polar(1.0, -kappa * nu * pos);
             }
         }
+        self.line_phase_per_mu = match (layout.az.first(), layout.az.get(1)) {
+            (Some(a0), Some(a1)) => kappa * (a1 - a0),
+            _ => 0.0,
+        };
         self.params = params;
         self.layout = layout;
         self.sub = SubArray::of(&layout, AZ);
@@ -730,14 +737,20 @@ impl<
         );
         let mut r = *cov;
         let mut rot = [ONE; M];
-        if self.params.tdm_compensation {
+        let line = if self.params.tdm_compensation {
             if !beam_doppler.is_finite() {
                 return;
             }
             let c = self.compensate_tdm(&mut r, beam_doppler, i);
             (rot, i) = (c.rotation, c.azimuth_bin);
             az_frac = c.azimuth_frac.unwrap_or(az_frac);
-        }
+            c.line
+        } else if self.params.subgrid {
+            self.azimuth_capon(&leading_block(&r))
+                .map(|(az, _, n)| (az, n))
+        } else {
+            None
+        };
 
         // Elevation sweep on the full array without FB averaging, or for coherent targets
         // on the FB-averaged sub-array (steering vectors and weights restricted to it). An
@@ -779,7 +792,7 @@ impl<
         let subgrid = self.params.subgrid;
         let (mu, range) = if subgrid {
             (
-                sine_at(self.params.azimuth_span_deg, NAZ, i as f32 + az_frac),
+                self.refined_mu(line.as_ref(), i, az_frac),
                 (b as f32 + range_frac) * self.range_bin_m,
             )
         } else {
@@ -821,6 +834,25 @@ impl<
                 doppler_bin: peak.bin,
                 ..point
             });
+        }
+    }
+
+    /// The sub-grid μ of azimuth bin `i`: the peak of the azimuth line's Capon spectrum
+    /// ([`LineSpectrum::peak_phase`]) within half a bin of `i`, started from the log-parabola
+    /// offset `frac`; the log-parabola's own μ without a positive-definite line of ≥ 2 elements.
+    fn refined_mu(&self, line: Option<&(Capon<AZ>, usize)>, i: usize, frac: f32) -> f32 {
+        let span = self.params.azimuth_span_deg;
+        let start = sine_at(span, NAZ, i as f32 + frac);
+        let k = self.line_phase_per_mu;
+        match line {
+            Some((az, n)) if *n > 1 && k != 0.0 => {
+                let (a, b) = (
+                    k * sine_at(span, NAZ, i as f32 - 0.5),
+                    k * sine_at(span, NAZ, i as f32 + 0.5),
+                );
+                LineSpectrum::leading(az, *n).peak_phase(k * start, a.min(b), a.max(b)) / k
+            }
+            _ => start,
         }
     }
 

@@ -253,3 +253,53 @@ fn readme_realistic_surface_verdicts_are_the_committed_report() -> TestResult {
     );
     Ok(())
 }
+
+/// README's angle-accuracy ratios to the Cramér–Rao bound (5–25 dB, DBE chain) are the
+/// committed report's.
+#[test]
+fn readme_crb_ratios_are_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let readme = read("README.md")?;
+    let flat = readme.split_whitespace().collect::<Vec<_>>().join(" ");
+    let rows: Vec<&Value> = summary["accuracy"]
+        .as_array()
+        .ok_or("summary.json has no accuracy")?
+        .iter()
+        .filter(|r| r["variant"] == "dbe")
+        .filter(|r| {
+            r["snr_db"]
+                .as_f64()
+                .is_some_and(|s| (5.0..=25.0).contains(&s))
+        })
+        .collect();
+    let range = |rmse: &str, crb: &str| -> Result<(f64, f64), String> {
+        let v: Vec<f64> = rows
+            .iter()
+            .map(|r| Ok(num(&r[rmse], rmse)? / num(&r[crb], crb)?))
+            .collect::<Result<_, String>>()?;
+        Ok((
+            v.iter().copied().fold(f64::INFINITY, f64::min),
+            v.iter().copied().fold(0.0, f64::max),
+        ))
+    };
+    let (a, e) = (
+        range("az_rmse_deg", "crb_az_deg")?,
+        range("el_rmse_deg", "crb_el_deg")?,
+    );
+    for quoted in [
+        format!(
+            "azimuth {:.2}–{:.2}×, elevation {:.2}–{:.2}× from 5 to 25 dB",
+            a.0, a.1, e.0, e.1
+        ),
+        format!(
+            "the azimuth RMSE is {:.2}–{:.2}× the Cramér–Rao bound from 5 to 25 dB",
+            a.0, a.1
+        ),
+    ] {
+        assert!(
+            flat.contains(&quoted),
+            "README lacks the report's figures\n{quoted}"
+        );
+    }
+    Ok(())
+}
