@@ -15,6 +15,12 @@ fn read(relative: &str) -> Result<String, Box<dyn std::error::Error>> {
     std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()).into())
 }
 
+/// `text` with every run of whitespace (line breaks included) as one space: README's
+/// sentences wrap.
+fn one_line(text: &str) -> String {
+    text.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
 fn num(v: &Value, what: &str) -> Result<f64, String> {
     v.as_f64()
         .ok_or_else(|| format!("summary.json: {what} is not a number: {v}"))
@@ -223,7 +229,7 @@ fn readme_odometry_table_is_the_committed_report() -> TestResult {
 fn readme_realistic_surface_verdicts_are_the_committed_report() -> TestResult {
     let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
     let readme = read("README.md")?;
-    let flat = readme.split_whitespace().collect::<Vec<_>>().join(" ");
+    let flat = one_line(&readme);
     let conclusions = summary["surface_conclusions"]
         .as_array()
         .ok_or("summary.json has no surface_conclusions")?;
@@ -260,7 +266,7 @@ fn readme_realistic_surface_verdicts_are_the_committed_report() -> TestResult {
 fn readme_crb_ratios_are_the_committed_report() -> TestResult {
     let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
     let readme = read("README.md")?;
-    let flat = readme.split_whitespace().collect::<Vec<_>>().join(" ");
+    let flat = one_line(&readme);
     let rows: Vec<&Value> = summary["accuracy"]
         .as_array()
         .ok_or("summary.json has no accuracy")?

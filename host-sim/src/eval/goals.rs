@@ -3,7 +3,7 @@
 //! [`super::tables`], rendering [`super::report`].
 
 use super::names;
-use super::scenarios::{Pair, SCENES};
+use super::scenarios::{Pair, SceneFile, SCENES};
 use super::tables::{
     mean, same, ChamferRow, DefaultsRow, Evaluation, Goal, ResolutionRow, SceneRow,
     AZIMUTH_STEP_DEG, ELEVATION_STEP_DEG, EXTENDED_SCENES,
@@ -176,21 +176,9 @@ pub(super) fn goals(e: &Evaluation) -> Vec<Goal> {
         };
         // The DBE chain at the CFAR threshold of the sweep with the lowest mean Chamfer
         // distance on the extended scenes.
-        let ext_cd = |v: &str| {
-            let cds: Vec<f64> = SCENES[..EXTENDED_SCENES]
-                .iter()
-                .filter_map(|s| e.chamfer_at(s.name, e.defaults_resolution_m, v)?.chamfer_m)
-                .collect();
-            (cds.len() == EXTENDED_SCENES)
-                .then(|| mean(cds.iter().copied()))
-                .flatten()
-        };
-        let best_alpha = e
-            .defaults
-            .iter()
-            .filter(|r| r.parameter.starts_with("CFAR α"))
-            .filter_map(|r| Some((ext_cd(&r.variant)?, r)))
-            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let extended: Vec<&SceneFile> = SCENES[..EXTENDED_SCENES].iter().collect();
+        let ext_cd = |v: &str| e.mean_chamfer_over(&extended, v);
+        let best_alpha = e.best_alpha_over(&extended);
         let fft_sens = sens(names::FFT);
         let dbe_sens = sens(names::DBE);
         let lowest = e.config.snr_db.first().copied().unwrap_or(f64::NAN);
@@ -232,7 +220,7 @@ pub(super) fn goals(e: &Evaluation) -> Vec<Goal> {
                 at(fft_sens),
             ));
         }
-        if let Some((cd, r)) = best_alpha {
+        if let Some((r, cd)) = best_alpha {
             detail.push_str(&format!(
                 ". The defaults sweep shows it: with α = {} dB instead of {} dB the DBE chain gives {} points per frame and a mean Chamfer distance of {:.3} m at {} m, against the FFT chain's {} m (Chamfer section)",
                 r.value,

@@ -568,17 +568,12 @@ pub struct SceneFile {
 }
 
 impl SceneFile {
-    /// The scene, with the realistic surfaces when asked for.
+    /// The scene, with the realistic surfaces when asked for (validated again by
+    /// [`Simulation::new`]).
     pub fn scene(&self) -> Result<Scene, EvalError> {
         let mut scene = Scene::from_toml_str(self.text, self.name)?;
         if self.realistic && scene.surfaces.is_default() {
             scene.surfaces = SurfaceModel::realistic();
-            scene
-                .validate()
-                .map_err(|problem| crate::sim::SimError::Scene {
-                    scene: self.name.to_string(),
-                    problem,
-                })?;
         }
         Ok(scene)
     }

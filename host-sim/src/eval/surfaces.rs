@@ -129,33 +129,20 @@ pub fn conclusions(rows: &[SurfaceRow]) -> Vec<Conclusion> {
         .collect()
 }
 
-/// The CFAR α of the defaults sweep (which holds the default) with the lowest mean per-frame Chamfer distance over the
-/// plain (`realistic = false`) or realistic scenes, with that mean and the false points per
-/// frame there: `(α, Chamfer m, false points per frame)`.
+/// The CFAR α of the defaults sweep with the lowest mean per-frame Chamfer distance over the
+/// plain (`realistic = false`) or realistic scenes ([`Evaluation::best_alpha_over`]), with
+/// that mean and the mean false points per frame there: `(α, Chamfer m, false points)`.
 pub fn best_alpha(e: &Evaluation, realistic: bool) -> Option<(String, f64, f64)> {
     let scenes: Vec<&SceneFile> = extended()
         .iter()
         .filter(|s| s.realistic == realistic)
         .collect();
-    let over = |v: &str| -> Option<(f64, f64)> {
-        let cds: Option<Vec<f64>> = scenes
-            .iter()
-            .map(|s| e.chamfer_at(s.name, e.defaults_resolution_m, v)?.chamfer_m)
-            .collect();
-        let fps: Option<Vec<f64>> = scenes
-            .iter()
-            .map(|s| Some(e.scene_at(s.name, v)?.false_points_per_frame))
-            .collect();
-        Some((mean(cds?)?, mean(fps?)?))
-    };
-    e.defaults
+    let (row, cd) = e.best_alpha_over(&scenes)?;
+    let fp = scenes
         .iter()
-        .filter(|r| r.parameter.starts_with("CFAR α"))
-        .filter_map(|r| {
-            let (cd, fp) = over(&r.variant)?;
-            Some((r.value.clone(), cd, fp))
-        })
-        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|s| Some(e.scene_at(s.name, &row.variant)?.false_points_per_frame))
+        .collect::<Option<Vec<f64>>>()?;
+    Some((row.value.clone(), cd, mean(fp)?))
 }
 
 #[cfg(test)]

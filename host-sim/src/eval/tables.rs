@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use super::bench::Bench;
 use super::crb::{direction_cosine_crb, omega_crb, Source, Unknown};
-use super::scenarios::{Context, Pair, PairTrial, SceneFrame, SingleTrial, SCENES};
+use super::scenarios::{Context, Pair, PairTrial, SceneFile, SceneFrame, SingleTrial, SCENES};
 use super::snr::db_to_linear;
 use super::{names, sweep_name, EvalConfig, EvalError, SweepValue};
 
@@ -439,6 +439,29 @@ impl Evaluation {
         self.scenes
             .iter()
             .find(|r| r.scene == scene && r.variant == variant)
+    }
+
+    /// Mean per-frame Chamfer distance of `variant` at the sweep's resolution over `scenes`
+    /// (`None` unless every scene has one), m.
+    pub fn mean_chamfer_over(&self, scenes: &[&SceneFile], variant: &str) -> Option<f64> {
+        let cds: Option<Vec<f64>> = scenes
+            .iter()
+            .map(|s| {
+                self.chamfer_at(s.name, self.defaults_resolution_m, variant)?
+                    .chamfer_m
+            })
+            .collect();
+        mean(cds?)
+    }
+
+    /// The CFAR α row of the defaults sweep (which holds the default) with the lowest
+    /// [`Self::mean_chamfer_over`] `scenes`, and that mean.
+    pub fn best_alpha_over(&self, scenes: &[&SceneFile]) -> Option<(&DefaultsRow, f64)> {
+        self.defaults
+            .iter()
+            .filter(|r| r.parameter.starts_with("CFAR α"))
+            .filter_map(|r| Some((r, self.mean_chamfer_over(scenes, &r.variant)?)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 
     /// The Chamfer row of `variant` on `scene` at `resolution_m`.

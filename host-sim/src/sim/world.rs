@@ -532,11 +532,13 @@ impl<'a> View<'a> {
         (c > 0.0).then_some(c)
     }
 
-    /// Emit the scatterer at world position `w` (already known to be seen) moving with world
-    /// velocity `v`, and its floor ghost when the scene has one; returns the ghosts emitted.
+    /// Emit the scatterer at world position `w`, radar-frame position `p` (already known to be
+    /// seen) moving with world velocity `v`, and its floor ghost when the scene has one;
+    /// returns the ghosts emitted.
     fn emit(
         &self,
         w: [f64; 3],
+        p: [f64; 3],
         v: [f64; 3],
         strength: Strength,
         phase: f64,
@@ -546,8 +548,7 @@ impl<'a> View<'a> {
             Strength::Rcs(sigma) => self.radar_constant * sigma.sqrt() / dot(p, p),
             Strength::Amplitude(a) => a,
         };
-        let mut push = |w: [f64; 3], v: [f64; 3], gain: f64| {
-            let p = self.to_radar(w);
+        let mut push = |p: [f64; 3], v: [f64; 3], gain: f64| {
             let (velocity, acceleration) = self.relative_motion(v, p);
             out.push(Scatterer {
                 position: p,
@@ -556,17 +557,16 @@ impl<'a> View<'a> {
                 amplitude: gain * amplitude(p),
                 phase,
             });
-            p
         };
-        push(w, v, 1.0);
+        push(p, v, 1.0);
         let Some((z, gain)) = self.scattering.ghost else {
             return 0;
         };
         if !(w[2] > z && self.pose.position.z > z && gain > 0.0) {
             return 0;
         }
-        let image = [w[0], w[1], 2.0 * z - w[2]];
-        if !self.in_fov(self.to_radar(image)) {
+        let image = self.to_radar([w[0], w[1], 2.0 * z - w[2]]);
+        if !self.in_fov(image) {
             return 0;
         }
         push(image, [v[0], v[1], -v[2]], gain);
@@ -591,7 +591,7 @@ impl<'a> View<'a> {
                     Some(a) => Strength::Amplitude(a),
                     None => Strength::Rcs(point.rcs_m2.unwrap_or(0.0)),
                 };
-                ghosts += self.emit(center_w, o.velocity, strength, point.phase, out);
+                ghosts += self.emit(center_w, center, o.velocity, strength, point.phase, out);
             }
         } else {
             let params = o.surface.unwrap_or(SurfaceParams {
@@ -601,7 +601,8 @@ impl<'a> View<'a> {
             });
             for s in &o.scatterers {
                 let w = add(s.p, off);
-                if !self.in_fov(self.to_radar(w)) {
+                let p = self.to_radar(w);
+                if !self.in_fov(p) {
                     continue;
                 }
                 let Some(c) = self.incidence(w, s.n, o.two_sided) else {
@@ -613,7 +614,7 @@ impl<'a> View<'a> {
                 let sigma = params.reflectivity
                     * s.area
                     * self.scattering.law(c, params.incidence_exponent);
-                ghosts += self.emit(w, o.velocity, Strength::Rcs(sigma), s.phase, out);
+                ghosts += self.emit(w, p, o.velocity, Strength::Rcs(sigma), s.phase, out);
             }
             for f in &o.features {
                 let w = add(f.p, off);
@@ -621,8 +622,9 @@ impl<'a> View<'a> {
                     || f.faces
                         .iter()
                         .any(|&n| self.incidence(w, n, false).is_some());
-                if faces && self.in_fov(self.to_radar(w)) && !self.occluded(w, id) {
-                    ghosts += self.emit(w, o.velocity, Strength::Rcs(f.sigma), f.phase, out);
+                let p = self.to_radar(w);
+                if faces && self.in_fov(p) && !self.occluded(w, id) {
+                    ghosts += self.emit(w, p, o.velocity, Strength::Rcs(f.sigma), f.phase, out);
                 }
             }
             for s in &o.truth {
