@@ -399,6 +399,11 @@ typedef struct {
    * detection's azimuth-beam Doppler is dropped (0: off, the paper's chain).
    */
   float doppler_agreement_bins;
+  /**
+   * CFAR window gate, dB: a detection more than this below the strongest cell of its CFAR
+   * window is dropped (0: off, the paper's chain).
+   */
+  float cfar_window_gate_db;
 } dbe_params_t;
 
 /**

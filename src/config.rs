@@ -323,6 +323,8 @@ pub enum Param {
     DopplerTest,
     /// `Params::doppler_agreement_bins`.
     DopplerAgreement,
+    /// `CfarParams::window_gate_db`.
+    CfarWindowGate,
 }
 
 impl Param {
@@ -352,6 +354,7 @@ impl Param {
             Param::CoherentDoppler => "coherent Doppler window (bins)",
             Param::DopplerTest => "Doppler test threshold (dB)",
             Param::DopplerAgreement => "Doppler agreement window (bins)",
+            Param::CfarWindowGate => "CFAR window gate (dB)",
         }
     }
 }

@@ -256,6 +256,9 @@ pub struct dbe_params_t {
     /// Doppler agreement, bins: a point whose own Capon beam peaks farther than this from its
     /// detection's azimuth-beam Doppler is dropped (0: off, the paper's chain).
     pub doppler_agreement_bins: f32,
+    /// CFAR window gate, dB: a detection more than this below the strongest cell of its CFAR
+    /// window is dropped (0: off, the paper's chain).
+    pub cfar_window_gate_db: f32,
 }
 
 /// Everything `dbe_init` configures.
@@ -554,6 +557,7 @@ fn param_name(p: dbe_radar::config::Param) -> &'static [u8] {
         CoherentDoppler => b"params.coherent_doppler_bins\0",
         DopplerTest => b"params.doppler_test_db\0",
         DopplerAgreement => b"params.doppler_agreement_bins\0",
+        CfarWindowGate => b"params.cfar_window_gate_db\0",
         _ => b"params\0",
     }
 }
@@ -659,6 +663,7 @@ fn params_c(p: &Params) -> dbe_params_t {
         coherent_doppler_bins: p.coherent_doppler_bins,
         spatial_smoothing: u8::from(p.spatial_smoothing),
         doppler_agreement_bins: p.doppler_agreement_bins,
+        cfar_window_gate_db: p.cfar.window_gate_db,
     }
 }
 
@@ -698,6 +703,7 @@ fn params_core(
     p.doppler_test_db = c.doppler_test_db;
     p.spatial_smoothing = c.spatial_smoothing != 0;
     p.doppler_agreement_bins = c.doppler_agreement_bins;
+    p.cfar.window_gate_db = c.cfar_window_gate_db;
     Ok(p)
 }
 

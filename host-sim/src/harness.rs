@@ -296,9 +296,11 @@ impl fmt::Display for Mismatch {
 /// Why a difference is tolerated.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Borderline {
-    /// The cell's power is within the margin of the CFAR threshold (`gap` relative).
+    /// The cell's power is within the margin of the CFAR threshold or of the window gate
+    /// (`gap` relative).
     Threshold {
-        /// `|P − α·level| / max(P, α·level)` on the reference map.
+        /// `|P − α·level| / max(P, α·level)` (or the same gap to the gate) on the reference
+        /// map.
         gap: f64,
     },
     /// A 3×3 neighbour is within the margin of the cell (the local maximum could move).
@@ -512,6 +514,10 @@ fn detection_borderline(
     let test = cfar_cell(&reference.ra_map, params, b, i, floor);
     let gap = relative_gap(power, test.threshold);
     if test.threshold.is_finite() && gap < tol.borderline_relative {
+        return Some(Borderline::Threshold { gap });
+    }
+    let gap = relative_gap(power, test.gate);
+    if test.gate > 0.0 && gap < tol.borderline_relative {
         return Some(Borderline::Threshold { gap });
     }
     if test.local_max_margin < tol.borderline_relative {

@@ -37,6 +37,9 @@
 //!   row's loading floor `δ_b/D` ([`CfarLevel::LoadingFloor`], selected by
 //!   [`ReferenceOptions::CORE_CONTRACT`] in [`process_frame_with`]), which the spec does not
 //!   say. Spec as written detects the ripples of the loading ridge under every strong target.
+//! - **CFAR window gate (beyond the spec, `CfarParams::window_gate_db` > 0).** A detection
+//!   also needs `P ≥ W / 10^(dB/10)`, `W` the largest value of its whole CFAR window (guard
+//!   and training cells and the cell itself, truncated as the training window).
 //! - **TDM-MIMO compensation (when enabled).** The Capon weight of the azimuth line at the
 //!   detection's `μ` beamforms the slow time; the strongest bin `d` of its windowed Doppler FFT
 //!   plus its log-parabola offset `δ` (from the two neighbours) gives
@@ -761,6 +764,9 @@ fn check_params(
     if !c.threshold_db.is_finite() {
         return Err(bad("cfar.threshold_db", "must be finite"));
     }
+    if !(c.window_gate_db.is_finite() && c.window_gate_db >= 0.0) {
+        return Err(bad("cfar.window_gate_db", "must be finite and ≥ 0"));
+    }
     if c.train_range == 0 && c.train_cross == 0 {
         return Err(bad("cfar training window", "must not be empty"));
     }
@@ -857,6 +863,10 @@ pub struct CellTest {
     pub level: Option<f64>,
     /// `α · level` (infinite without a level).
     pub threshold: f64,
+    /// The window gate: the strongest cell of the whole CFAR window (guard and training
+    /// cells) over `10^(window_gate_db/10)`, which a detection must reach; 0 with the gate
+    /// off.
+    pub gate: f64,
     /// The cell is the maximum of its 3×3 neighbourhood (ties to the lower index).
     pub local_max: bool,
     /// Smallest relative change of a compared pair that would flip `local_max`.
@@ -866,7 +876,7 @@ pub struct CellTest {
 impl CellTest {
     /// The cell is a detection: local maximum, positive, above the threshold.
     pub fn detects(&self, power: f64) -> bool {
-        self.local_max && power > 0.0 && power > self.threshold
+        self.local_max && power > 0.0 && power > self.threshold && power >= self.gate
     }
 }
 
@@ -958,6 +968,29 @@ fn order_statistic(
     Some(train[k - 1])
 }
 
+/// The strongest cell of the CFAR window around `(b, i)`: guard and training cells and the
+/// cell itself, rows `first..=last`, columns truncated at the grid.
+fn window_max(
+    map: &[Vec<f64>],
+    p: &CfarParams,
+    first: usize,
+    last: usize,
+    b: usize,
+    i: usize,
+) -> f64 {
+    let wr = usize::from(p.guard_range) + usize::from(p.train_range);
+    let wa = usize::from(p.guard_cross) + usize::from(p.train_cross);
+    let rows = first.max(b.saturating_sub(wr))..=last.min(b + wr);
+    map.get(rows)
+        .unwrap_or(&[])
+        .iter()
+        .flat_map(|row| {
+            let cols = i.saturating_sub(wa)..=(i + wa).min(row.len().saturating_sub(1));
+            row.get(cols).unwrap_or(&[]).iter().copied()
+        })
+        .fold(0.0, f64::max)
+}
+
 /// Evaluate the OS-CFAR rule of the module docs at cell `(b, i)` of `map` (rows
 /// `params.range_first ..= range_last` processed), with the level raised to `floor` (pass 0
 /// for spec §3.2 as written). Cells outside the processed rows or the grid give no level.
@@ -968,6 +1001,7 @@ pub fn cfar_cell(map: &[Vec<f64>], params: &Params, b: usize, i: usize, floor: f
             order_statistic: None,
             level: None,
             threshold: f64::INFINITY,
+            gate: 0.0,
             local_max: false,
             local_max_margin: f64::INFINITY,
         };
@@ -976,10 +1010,17 @@ pub fn cfar_cell(map: &[Vec<f64>], params: &Params, b: usize, i: usize, floor: f
     let order = order_statistic(map, &params.cfar, first, last, b, i);
     let level = order.map(|o| o.max(floor));
     let alpha = 10f64.powf(f64::from(params.cfar.threshold_db) / 10.0);
+    let gate_db = f64::from(params.cfar.window_gate_db);
+    let gate = if gate_db > 0.0 {
+        window_max(map, &params.cfar, first, last, b, i) / 10f64.powf(gate_db / 10.0)
+    } else {
+        0.0
+    };
     CellTest {
         order_statistic: order,
         level,
         threshold: level.map_or(f64::INFINITY, |l| alpha * l),
+        gate,
         local_max: is_max,
         local_max_margin,
     }

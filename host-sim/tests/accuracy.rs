@@ -96,8 +96,13 @@ fn without_tdm_compensation_the_moving_sensor_loses_elevation_accuracy() -> Test
     )?;
     assert!(on.detection_rate() >= 0.95, "on {on:?}");
     assert!(off.detection_rate() < 0.5, "off {off:?}");
+    // The reflectors' points are displaced, not lost: without compensation at least as many
+    // points per frame lie farther than 0.6 m from every object as there are reflectors
+    // detected per frame with it. (The total point count is no measure: compensation also
+    // makes weak moving surface returns coherent over the TX slots, so more of them pass.)
+    let detected_per_frame = on.detected as f64 / FRAMES as f64;
     assert!(
-        off.points_per_frame >= on.points_per_frame,
+        off.false_points_per_frame >= detected_per_frame,
         "on {on:?}, off {off:?}"
     );
     Ok(())

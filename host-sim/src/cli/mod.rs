@@ -20,13 +20,18 @@ pub struct ParamArgs {
     /// Turn TDM-MIMO motion compensation off (reproduces the paper's chain).
     #[arg(long)]
     pub no_tdm_compensation: bool,
-    /// CFAR threshold α over the noise level, dB, in [−10, 60] [default: 3].
+    /// CFAR threshold α over the noise level, dB, in [−10, 60] [default: 2].
     #[arg(long, value_name = "DB", allow_negative_numbers = true)]
     pub cfar_threshold_db: Option<f32>,
     /// CFAR order-statistic quantile q: the noise level is the ⌈q·n⌉-th smallest of the n
     /// training cells, q in (0, 1] [default: 0.75].
     #[arg(long, value_name = "Q")]
     pub cfar_quantile: Option<f32>,
+    /// CFAR window gate, dB, in [0, 60]: a detection more than this below the strongest cell
+    /// of its CFAR window (a strong neighbour's range skirt) is dropped; 0 turns it off
+    /// [default: 12; the paper's chain: 0].
+    #[arg(long, value_name = "DB")]
+    pub cfar_window_gate_db: Option<f32>,
     /// Diagonal loading γ (δ = γ·tr(R)/M), in (0, 1] [default: 0.01].
     #[arg(long, value_name = "GAMMA", allow_negative_numbers = true)]
     pub loading: Option<f32>,
@@ -47,7 +52,8 @@ pub struct ParamArgs {
     #[arg(long)]
     pub spatial_smoothing: bool,
     /// The paper's chain: no TDM-MIMO compensation, no coherent sub-array, no Doppler test, no
-    /// Doppler agreement, points on the grid (the other options still apply on top).
+    /// Doppler agreement, no CFAR window gate, points on the grid (the other options still
+    /// apply on top).
     #[arg(long)]
     pub paper: bool,
     /// Turn the Doppler test off: by default a detection whose azimuth Capon beam (after TDM
@@ -92,6 +98,12 @@ impl ParamArgs {
                 anyhow::bail!("--cfar-threshold-db {t}: expected a value in [-10, 60] dB");
             }
             p.cfar.threshold_db = t;
+        }
+        if let Some(g) = self.cfar_window_gate_db {
+            if !(0.0..=60.0).contains(&g) {
+                anyhow::bail!("--cfar-window-gate-db {g}: expected a value in [0, 60] dB");
+            }
+            p.cfar.window_gate_db = g;
         }
         if let Some(q) = self.cfar_quantile {
             if !(q > 0.0 && q <= 1.0) {

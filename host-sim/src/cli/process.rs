@@ -235,6 +235,7 @@ fn run_record(
             "doppler_test_db": params.doppler_test_db,
             "doppler_agreement_bins": params.doppler_agreement_bins,
             "cfar_threshold_db": params.cfar.threshold_db,
+            "cfar_window_gate_db": params.cfar.window_gate_db,
             "loading": params.loading,
             "all": format!("{params:?}"),
         },

@@ -255,6 +255,8 @@ pub enum SweepValue {
     Coherent(f32),
     /// The Doppler agreement window, bins (0: off).
     DopplerAgreement(f32),
+    /// The CFAR window gate, dB (0: off).
+    WindowGate(f32),
 }
 
 impl SweepValue {
@@ -268,6 +270,7 @@ impl SweepValue {
             SweepValue::DopplerTest(_) => "Doppler test (dB)",
             SweepValue::Coherent(_) => "coherent window (bins)",
             SweepValue::DopplerAgreement(_) => "Doppler agreement (bins)",
+            SweepValue::WindowGate(_) => "CFAR window gate (dB)",
         }
     }
 
@@ -281,6 +284,7 @@ impl SweepValue {
             SweepValue::DopplerTest(t) => format!("{t}"),
             SweepValue::Coherent(c) => format!("{c}"),
             SweepValue::DopplerAgreement(g) => format!("{g}"),
+            SweepValue::WindowGate(g) => format!("{g}"),
         }
     }
 
@@ -299,6 +303,7 @@ impl SweepValue {
             SweepValue::DopplerTest(t) => params.doppler_test_db = t,
             SweepValue::Coherent(c) => params.coherent_doppler_bins = c,
             SweepValue::DopplerAgreement(g) => params.doppler_agreement_bins = g,
+            SweepValue::WindowGate(g) => params.cfar.window_gate_db = g,
         }
         params
     }
@@ -334,6 +339,9 @@ pub fn defaults_sweep() -> Vec<SweepValue> {
     }
     for g in [0.0, 1.0, 1.5, 3.0] {
         v.push(SweepValue::DopplerAgreement(g));
+    }
+    for g in [0.0, 6.0, 9.0, 12.0, 15.0, 20.0] {
+        v.push(SweepValue::WindowGate(g));
     }
     v
 }
