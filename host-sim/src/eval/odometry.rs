@@ -15,7 +15,7 @@ use super::scenarios::{par_run, scene_file, SceneFile};
 use super::EvalError;
 use crate::cloud::PointRecord;
 use crate::io::StampedPose;
-use crate::odometry::{self, ekf::EkfParams, metrics, EgoErrors, UpdateCounts};
+use crate::odometry::{self, ekf::EkfParams, metrics, EgoErrors, RadialConsistency, UpdateCounts};
 use crate::sensor::SensorConfig;
 use crate::sim::{render::mix, scene_imu, Scene, Simulation};
 
@@ -61,6 +61,8 @@ pub struct OdometryRow {
     pub points_per_frame: f64,
     /// Ego-velocity errors against the exact truth.
     pub ego: EgoErrors,
+    /// The static points' radial velocities against their directions and the truth.
+    pub radial: RadialConsistency,
     /// What the filter did with the frames.
     pub updates: UpdateCounts,
     /// Trajectory errors (`None` if the filter could not run).
@@ -114,7 +116,7 @@ pub fn run_odometry(
                     .collect();
                 let frames = odometry::frame_velocities(&per_frame, mid)
                     .map_err(|e| EvalError::Setup(format!("ego-velocity parameters: {e:?}")))?;
-                let ego = odometry::ego_errors(&frames, |t| {
+                let velocity = |t: f64| {
                     Some(
                         scene
                             .sensor
@@ -122,7 +124,11 @@ pub fn run_odometry(
                             .mounted(&scene.rig.radar)
                             .body_velocity(),
                     )
-                });
+                };
+                let ego = odometry::ego_errors(&frames, velocity);
+                let at_mid: Vec<(f64, &[PointRecord])> =
+                    per_frame.iter().map(|&(t, p)| (t + mid, p)).collect();
+                let radial = RadialConsistency::measure(&at_mid, velocity);
                 let run = odometry::run(&EkfParams::default(), &imu, &frames, &scene.rig);
                 let total: usize = frames.iter().map(|f| f.points).sum();
                 let (updates, errors, failure) = match run {
@@ -136,6 +142,7 @@ pub fn run_odometry(
                     frames: n,
                     points_per_frame: total as f64 / n as f64,
                     ego,
+                    radial,
                     updates,
                     errors,
                     failure,
@@ -186,6 +193,10 @@ pub struct OdometrySummary {
     pub ego_nees: f64,
     /// Points per frame (mean).
     pub points_per_frame: f64,
+    /// Radial-velocity scale of the static points (mean; [`RadialConsistency::scale`]).
+    pub radial_scale: f64,
+    /// Their residual RMS at slow and fast direction sweep, m/s (mean).
+    pub radial_rms_slow_fast_mps: [f64; 2],
     /// Paired DBE − FFT difference of the XYZ drift (% of the path), mean and standard
     /// deviation over seeds (on the DBE row only).
     pub xyz_pct_minus_fft: Option<(f64, f64)>,
@@ -250,6 +261,8 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
                 estimated_while_moving_pct: me(&|r| r.ego.estimated_while_moving_pct),
                 ego_nees: me(&|r| r.ego.nees),
                 points_per_frame: me(&|r| r.points_per_frame),
+                radial_scale: me(&|r| r.radial.scale),
+                radial_rms_slow_fast_mps: [0, 1].map(|i| me(&|r| r.radial.rms_slow_fast_mps[i])),
                 xyz_pct_minus_fft: paired.flatten(),
             });
         }

@@ -152,6 +152,82 @@ pub fn ego_errors(
     }
 }
 
+/// How well the points' radial velocities agree with their directions, against the truth:
+/// for a static scatterer `v_r = −u·v`, so `v_r + u·v_true` is the part of a point's error
+/// that the ego-velocity fit sees (Doppler error plus direction error times the speed).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RadialConsistency {
+    /// Points used: those of frames moving faster than [`RadialConsistency::MIN_SPEED_MPS`]
+    /// whose residual against the truth is within the estimator's inlier band (static).
+    pub points: usize,
+    /// Least-squares slope through the origin of the measured `v_r` against `−u·v_true`:
+    /// 1 when unbiased; below 1 the points read a slower radar.
+    pub scale: f64,
+    /// Residual RMS, m/s, of the points whose direction sweeps slowly (`|v|·sinθ/r` below
+    /// 0.1 rad/s) and fast (at or above 0.3 rad/s): the direction term of the estimator's
+    /// weights (`EgoParams::cross_range_sigma_m`).
+    pub rms_slow_fast_mps: [f64; 2],
+}
+
+impl RadialConsistency {
+    /// Frames slower than this are left out, m/s.
+    pub const MIN_SPEED_MPS: f64 = 0.3;
+
+    /// From `frames` (measurement time, points) and `truth(t)`, the radar's velocity in its
+    /// own frame.
+    pub fn measure(
+        frames: &[(f64, &[PointRecord])],
+        truth: impl Fn(f64) -> Option<Vector3<f64>>,
+    ) -> Self {
+        let band = f64::from(EgoParams::DEFAULT.inlier_mps);
+        let (mut xy, mut xx, mut n) = (0.0, 0.0, 0usize);
+        let mut sums = [(0.0f64, 0usize); 2];
+        for &(t, points) in frames {
+            let Some(v) = truth(t).filter(|v| v.norm() > Self::MIN_SPEED_MPS) else {
+                continue;
+            };
+            for p in points {
+                let pos = Vector3::new(p.x, p.y, p.z);
+                let r = pos.norm();
+                if !(r > 0.0) {
+                    continue;
+                }
+                let u = pos / r;
+                let predicted = -u.dot(&v);
+                let e = p.doppler - predicted;
+                if !(e.abs() <= band) {
+                    continue;
+                }
+                xy += p.doppler * predicted;
+                xx += predicted * predicted;
+                n += 1;
+                let rate = u.cross(&v).norm() / r;
+                let slot = match rate {
+                    x if x < 0.1 => Some(0),
+                    x if x >= 0.3 => Some(1),
+                    _ => None,
+                };
+                if let Some(k) = slot {
+                    sums[k].0 += e * e;
+                    sums[k].1 += 1;
+                }
+            }
+        }
+        let rms = |(s, c): (f64, usize)| {
+            if c > 0 {
+                (s / c as f64).sqrt()
+            } else {
+                f64::NAN
+            }
+        };
+        Self {
+            points: n,
+            scale: if xx > 0.0 { xy / xx } else { f64::NAN },
+            rms_slow_fast_mps: sums.map(rms),
+        }
+    }
+}
+
 /// What the filter did over a sequence.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct UpdateCounts {
