@@ -56,9 +56,9 @@ fn coloradar_buffers() {
     assert_eq!(tables, 29_412);
     let dbe = size_of::<p::Dbe>();
     assert!(dbe >= tables && dbe <= tables + 512, "Dbe is {dbe} bytes");
-    // Ego-velocity: DET directions (12) + velocities (4) + inlier flags (1) + median
-    // scratch (4), parameters and iteration count.
-    assert_eq!(size_of::<p::EgoEstimator>(), 128 * 21 + 64);
+    // Ego-velocity: DET directions (12) + velocities (4) + inverse ranges (4) + inlier
+    // flags (1) + median scratch (4), parameters and iteration count.
+    assert_eq!(size_of::<p::EgoEstimator>(), 128 * 25 + 64);
 }
 
 #[test]
