@@ -184,11 +184,7 @@ fn perfect_radar(scene: &Scene, frames: usize, sigma: f64, seed: u64) -> Vec<Fra
         .map(|i| {
             let t = i as f64 / scene.frame_rate_hz;
             let tm = t + 0.025;
-            let v = scene
-                .sensor
-                .pose(tm)
-                .mounted(&scene.rig.radar)
-                .body_velocity();
+            let v = scene.radar_velocity(tm);
             let mut ego = dbe_radar::EgoVelocity {
                 status: dbe_radar::EgoStatus::Ok,
                 covariance: [[var, 0.0, 0.0], [0.0, var, 0.0], [0.0, 0.0, var]],
@@ -281,13 +277,7 @@ fn ekf_gates_a_wrong_velocity_and_takes_a_right_one() -> TestResult {
         Ekf::initialise(EkfParams::default(), &imu, &scene.rig.radar, &scene.rig.imu)?;
     // Converge on right velocities for 2 s of walking, then offer a wrong one.
     let cov = Matrix3::identity() * 0.03f64.powi(2);
-    let truth_at_t = |t: f64| {
-        scene
-            .sensor
-            .pose(t)
-            .mounted(&scene.rig.radar)
-            .body_velocity()
-    };
+    let truth_at_t = |t: f64| scene.radar_velocity(t);
     let mut t = 2.0;
     let mut truth = Vector3::zeros();
     while t < 4.0 {
@@ -592,15 +582,7 @@ fn isolated_points_on_a_moving_sensor_have_consistent_radial_velocities() -> Tes
         }
         let view: Vec<(f64, &[host_sim::cloud::PointRecord])> =
             frames.iter().map(|(t, p)| (*t, p.as_slice())).collect();
-        let c = RadialConsistency::measure(&view, |t| {
-            Some(
-                scene
-                    .sensor
-                    .pose(t)
-                    .mounted(&scene.rig.radar)
-                    .body_velocity(),
-            )
-        });
+        let c = RadialConsistency::measure(&view, |t| Some(scene.radar_velocity(t)));
         println!("{chain:?}: {c:?}");
         assert!(c.points >= 6 * 18, "{chain:?}: too few points {c:?}");
         // Per point the residual is ~0.002 m/s (Doppler and angle errors at these SNRs); over

@@ -116,15 +116,7 @@ pub fn run_odometry(
                     .collect();
                 let frames = odometry::frame_velocities(&per_frame, mid)
                     .map_err(|e| EvalError::Setup(format!("ego-velocity parameters: {e:?}")))?;
-                let velocity = |t: f64| {
-                    Some(
-                        scene
-                            .sensor
-                            .pose(t)
-                            .mounted(&scene.rig.radar)
-                            .body_velocity(),
-                    )
-                };
+                let velocity = |t: f64| Some(scene.radar_velocity(t));
                 let ego = odometry::ego_errors(&frames, velocity);
                 let at_mid: Vec<(f64, &[PointRecord])> =
                     per_frame.iter().map(|&(t, p)| (t + mid, p)).collect();

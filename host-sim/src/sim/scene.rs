@@ -811,6 +811,12 @@ fn in_range(name: &str, v: f64, lo: f64, hi: f64) -> Result<(), String> {
 }
 
 impl Scene {
+    /// The radar's exact velocity in its own frame at time `t`, m/s: the rig's pose at `t`
+    /// with the radar's mount (the ego-velocity truth).
+    pub fn radar_velocity(&self, t: f64) -> nalgebra::Vector3<f64> {
+        self.sensor.pose(t).mounted(&self.rig.radar).body_velocity()
+    }
+
     /// The scene of `dbe demo`: four corner reflectors at different ranges, azimuths and
     /// elevations, a wall 14 m ahead and a pole, seen by a sensor walking forward at 1.2 m/s.
     pub fn builtin_demo() -> Self {
