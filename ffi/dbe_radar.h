@@ -404,6 +404,11 @@ typedef struct {
    * window is dropped (0: off, the paper's chain).
    */
   float cfar_window_gate_db;
+  /**
+   * Joint elevation fit of the points of each range bin (off by default and in the
+   * paper's chain; `dbe_radar::joint`).
+   */
+  uint8_t joint_elevation;
 } dbe_params_t;
 
 /**

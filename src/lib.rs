@@ -58,6 +58,7 @@ pub mod elevation;
 pub mod fft;
 pub mod fft_pipeline;
 pub mod frontend;
+pub mod joint;
 pub mod pipeline;
 pub mod points;
 pub mod presets;

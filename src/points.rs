@@ -115,6 +115,11 @@ impl<const P: usize> PointCloud<P> {
         &self.points[..self.len]
     }
 
+    /// The points, to amend in place (the DBE chain's joint elevation fit).
+    pub(crate) fn points_mut(&mut self) -> &mut [Point] {
+        &mut self.points[..self.len]
+    }
+
     /// Forget the points and statistics (the first thing a chain's point stage does; a
     /// caller does it for a frame it could not process, so no stale points remain).
     pub fn clear(&mut self) {

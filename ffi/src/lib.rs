@@ -259,6 +259,9 @@ pub struct dbe_params_t {
     /// CFAR window gate, dB: a detection more than this below the strongest cell of its CFAR
     /// window is dropped (0: off, the paper's chain).
     pub cfar_window_gate_db: f32,
+    /// Joint elevation fit of the points of each range bin (off by default and in the
+    /// paper's chain; `dbe_radar::joint`).
+    pub joint_elevation: u8,
 }
 
 /// Everything `dbe_init` configures.
@@ -664,6 +667,7 @@ fn params_c(p: &Params) -> dbe_params_t {
         spatial_smoothing: u8::from(p.spatial_smoothing),
         doppler_agreement_bins: p.doppler_agreement_bins,
         cfar_window_gate_db: p.cfar.window_gate_db,
+        joint_elevation: u8::from(p.joint_elevation),
     }
 }
 
@@ -704,6 +708,7 @@ fn params_core(
     p.spatial_smoothing = c.spatial_smoothing != 0;
     p.doppler_agreement_bins = c.doppler_agreement_bins;
     p.cfar.window_gate_db = c.cfar_window_gate_db;
+    p.joint_elevation = c.joint_elevation != 0;
     Ok(p)
 }
 

@@ -1226,6 +1226,16 @@ pub fn process_frame_with(
         }
         start = end;
     }
+    if params.joint_elevation && setup.array.line < setup.array.len() {
+        joint_elevations(
+            &setup,
+            params,
+            &covariances,
+            &found,
+            &mut margins,
+            &mut points,
+        );
+    }
     for (det, margin) in found.iter_mut().zip(margins) {
         det.decision_margin = margin.0;
     }
@@ -1627,6 +1637,158 @@ fn resolve(
             elevation_bin: j as u32,
             doppler_bin: d,
         });
+    }
+}
+
+/// Beyond the spec, `Params::joint_elevation` (core module [`dbe_radar::joint`]): range bin by
+/// range bin (points in their order), the bin's own points and those of the bins within
+/// [`dbe_radar::joint::NEIGHBOUR_BINS`] (at most [`dbe_radar::joint::MAX_SOURCES`]) are sources
+/// `conj(rot(v_s)) ⊙ a(μ_s, ν)` on the bin's raw covariance; alternating projection moves
+/// each in turn to the grid elevation maximising `bᴴRb / bᴴb`, `b = (I − P_others)·a`
+/// (here the projection from a thin SVD of the others' steering matrix, the core's from
+/// Gram–Schmidt), at most [`dbe_radar::joint::SWEEPS`] sweeps, then the log-parabola offset of the
+/// objective. The own points get the fitted elevation; every detection of the bin gets
+/// the decision margin of each argmax (best against runner-up).
+fn joint_elevations(
+    setup: &Setup,
+    params: &Params,
+    covariances: &[Option<DMatrix<Complex64>>],
+    found: &[RefDetection],
+    margins: &mut [Margin],
+    points: &mut [PointRecord],
+) {
+    const MAX: usize = dbe_radar::joint::MAX_SOURCES;
+    let m = setup.array.len();
+    let nel = setup.el_nu.len();
+    let mut start = 0;
+    while start < points.len() {
+        let b = points[start].range_bin;
+        let own = points[start..]
+            .iter()
+            .take_while(|p| p.range_bin == b)
+            .count();
+        let mut members: Vec<usize> = (start..start + own).collect();
+        for gap in 1..=u32::from(dbe_radar::joint::NEIGHBOUR_BINS) {
+            for (k, p) in points.iter().enumerate() {
+                if p.range_bin.abs_diff(b) == gap && members.len() < MAX {
+                    members.push(k);
+                }
+            }
+        }
+        let r = covariances.get(b as usize).and_then(|r| r.as_ref());
+        if let (true, Some(r)) = ((2..=MAX).contains(&members.len()), r) {
+            // Per source: azimuth-and-slot part of its steering vector, and its bin.
+            let mut sources: Vec<(DVector<Complex64>, usize)> = members
+                .iter()
+                .map(|&k| {
+                    let p = &points[k];
+                    let range = (p.x * p.x + p.y * p.y + p.z * p.z).sqrt();
+                    let mu = if range > 0.0 { -p.y / range } else { 0.0 };
+                    let v = if params.tdm_compensation {
+                        p.doppler
+                    } else {
+                        0.0
+                    };
+                    let base = DVector::from_iterator(
+                        m,
+                        setup.array.elements.iter().map(|e| {
+                            let slot = setup.slot_phase_per_mps * v * e.slot as f64;
+                            Complex64::from_polar(1.0, -setup.kappa * mu * e.az + slot)
+                        }),
+                    );
+                    (base, p.elevation_bin as usize)
+                })
+                .collect();
+            let el = |j: usize| setup.steering(m, 0.0, setup.el_nu[j]);
+            let steer = |base: &DVector<Complex64>, j: usize| base.component_mul(&el(j));
+            let complement = |sources: &[(DVector<Complex64>, usize)], skip: usize| {
+                let cols: Vec<DVector<Complex64>> = sources
+                    .iter()
+                    .enumerate()
+                    .filter(|&(t, _)| t != skip)
+                    .map(|(_, (base, j))| steer(base, *j))
+                    .collect();
+                let a = DMatrix::from_columns(&cols);
+                let svd = a.svd(true, false);
+                let u = svd.u.expect("requested U");
+                let mut proj = DMatrix::<Complex64>::identity(m, m);
+                for (c, sv) in svd.singular_values.iter().enumerate() {
+                    if sv * sv > 1e-6 * m as f64 {
+                        let q = u.column(c);
+                        proj -= q * q.adjoint();
+                    }
+                }
+                proj
+            };
+            let objective = |proj: &DMatrix<Complex64>, a: &DVector<Complex64>| {
+                let b = proj * a;
+                let bb = b.norm_squared();
+                if bb > 1e-4 * m as f64 {
+                    b.dotc(&(r * &b)).re / bb
+                } else {
+                    0.0
+                }
+            };
+            let mut margin = Margin::new();
+            for _ in 0..dbe_radar::joint::SWEEPS {
+                let mut moved = false;
+                for s in 0..sources.len() {
+                    let proj = complement(&sources, s);
+                    let f: Vec<f64> = (0..nel)
+                        .map(|j| objective(&proj, &steer(&sources[s].0, j)))
+                        .collect();
+                    // The first of equal maxima, as the core's strict comparison.
+                    let mut best = 0;
+                    for (j, &v) in f.iter().enumerate() {
+                        if v > f[best] {
+                            best = j;
+                        }
+                    }
+                    let runner_up = f
+                        .iter()
+                        .enumerate()
+                        .filter(|&(j, _)| j != best)
+                        .map(|(_, &v)| v)
+                        .fold(f64::NEG_INFINITY, f64::max);
+                    margin.note(f[best], runner_up);
+                    moved |= best != sources[s].1;
+                    sources[s].1 = best;
+                }
+                if !moved {
+                    break;
+                }
+            }
+            for (s, &k) in members.iter().enumerate().take(own) {
+                let j = sources[s].1;
+                let frac = match (params.subgrid, j.checked_sub(1), j + 1 < nel) {
+                    (true, Some(left), true) => {
+                        let proj = complement(&sources, s);
+                        let f = |j: usize| objective(&proj, &steer(&sources[s].0, j));
+                        log_parabola_vertex(f(left), f(j), f(j + 1))
+                    }
+                    _ => 0.0,
+                };
+                let nu = match params.subgrid {
+                    true => grid_sine(params.elevation_span_deg, nel, j as f64 + frac),
+                    false => setup.el_nu[j],
+                };
+                let p = &mut points[k];
+                let range = (p.x * p.x + p.y * p.y + p.z * p.z).sqrt();
+                let mu = if range > 0.0 { -p.y / range } else { 0.0 };
+                let cos2 = 1.0 - mu * mu - nu * nu;
+                margin.note(mu * mu + nu * nu, 1.0);
+                if cos2 > 0.0 {
+                    (p.x, p.y, p.z) = (range * cos2.sqrt(), -range * mu, range * nu);
+                    p.elevation_bin = j as u32;
+                }
+            }
+            for (det, g) in found.iter().zip(margins.iter_mut()) {
+                if det.range_bin == b as usize {
+                    g.0 = g.0.min(margin.0);
+                }
+            }
+        }
+        start += own;
     }
 }
 

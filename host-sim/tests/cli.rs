@@ -580,6 +580,21 @@ fn every_process_run_leaves_a_record_and_quiet_prints_nothing() -> TestResult {
     assert_eq!(p["doppler_agreement_bins"], 0.0);
     assert_eq!(p["coherent_doppler_bins"], 0.0);
     assert_eq!(p["spatial_smoothing"], false);
+    assert_eq!(p["joint_elevation"], false);
+    // `--joint-elevation` on top of the defaults, recorded.
+    let joint = dir.path().join("joint");
+    ok(&[
+        "process",
+        s(&seq),
+        "--out",
+        s(&joint),
+        "--joint-elevation",
+        "--quiet",
+    ]);
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(joint.join("run.json"))?)?;
+    assert_eq!(run["parameters"]["joint_elevation"], true);
+    assert_eq!(run["parameters"]["tdm_compensation"], true);
     Ok(())
 }
 

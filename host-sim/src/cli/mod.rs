@@ -51,6 +51,12 @@ pub struct ParamArgs {
     /// 12° or more apart are always resolved, at the cost of one element of azimuth aperture.
     #[arg(long)]
     pub spatial_smoothing: bool,
+    /// Fit the elevations of each range bin's points together (deterministic model, each
+    /// point's own TDM slot phase, the points of the two neighbouring range bins included):
+    /// crowded range bins of point scatterers get their elevations right where the per-point
+    /// Capon sweep pulls them together; off by default (`Params::joint_elevation`).
+    #[arg(long)]
+    pub joint_elevation: bool,
     /// The paper's chain: no TDM-MIMO compensation, no coherent sub-array, no Doppler test, no
     /// Doppler agreement, no CFAR window gate, points on the grid (the other options still
     /// apply on top).
@@ -91,6 +97,7 @@ impl ParamArgs {
             p.coherent_doppler_bins = 0.0;
         }
         p.spatial_smoothing = self.spatial_smoothing;
+        p.joint_elevation = self.joint_elevation;
         if let Some(t) = self.cfar_threshold_db {
             // Below −10 dB every local maximum is a detection; above 60 dB nothing a 16-bit
             // ADC can record passes.
