@@ -1644,7 +1644,8 @@ fn resolve(
 /// range bin (points in their order), the bin's own points and those of the bins within
 /// [`dbe_radar::joint::NEIGHBOUR_BINS`] (at most [`dbe_radar::joint::MAX_SOURCES`]) are sources
 /// `conj(rot(v_s)) ⊙ a(μ_s, ν)` on the bin's raw covariance; alternating projection moves
-/// each in turn to the grid elevation maximising `bᴴRb / bᴴb`, `b = (I − P_others)·a`
+/// each in turn to the grid elevation within [`dbe_radar::joint::SEARCH_BINS`] of its start
+/// that maximises `bᴴRb / bᴴb`, `b = (I − P_others)·a`
 /// (here the projection from a thin SVD of the others' steering matrix, the core's from
 /// Gram–Schmidt), at most [`dbe_radar::joint::SWEEPS`] sweeps, then the log-parabola offset of the
 /// objective. The own points get the fitted elevation; every detection of the bin gets
@@ -1730,27 +1731,31 @@ fn joint_elevations(
                 }
             };
             let mut margin = Margin::new();
+            let reach = dbe_radar::joint::SEARCH_BINS;
+            let start: Vec<usize> = sources.iter().map(|s| s.1.min(nel - 1)).collect();
             for _ in 0..dbe_radar::joint::SWEEPS {
                 let mut moved = false;
                 for s in 0..sources.len() {
                     let proj = complement(&sources, s);
-                    let f: Vec<f64> = (0..nel)
-                        .map(|j| objective(&proj, &steer(&sources[s].0, j)))
+                    let window = start[s].saturating_sub(reach)..=(start[s] + reach).min(nel - 1);
+                    let f: Vec<(usize, f64)> = window
+                        .map(|j| (j, objective(&proj, &steer(&sources[s].0, j))))
                         .collect();
                     // The first of equal maxima, as the core's strict comparison.
-                    let mut best = 0;
-                    for (j, &v) in f.iter().enumerate() {
-                        if v > f[best] {
-                            best = j;
+                    let mut best = f[0];
+                    for &(j, v) in &f {
+                        if v > best.1 {
+                            best = (j, v);
                         }
                     }
                     let runner_up = f
                         .iter()
-                        .enumerate()
-                        .filter(|&(j, _)| j != best)
-                        .map(|(_, &v)| v)
+                        .filter(|&&(j, _)| j != best.0)
+                        .map(|&(_, v)| v)
                         .fold(f64::NEG_INFINITY, f64::max);
-                    margin.note(f[best], runner_up);
+                    let best_value = best.1;
+                    let best = best.0;
+                    margin.note(best_value, runner_up);
                     moved |= best != sources[s].1;
                     sources[s].1 = best;
                 }

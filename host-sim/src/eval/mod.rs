@@ -257,6 +257,8 @@ pub enum SweepValue {
     DopplerAgreement(f32),
     /// The CFAR window gate, dB (0: off).
     WindowGate(f32),
+    /// The joint elevation fit of each range bin's points (`Params::joint_elevation`).
+    JointElevation(bool),
 }
 
 impl SweepValue {
@@ -271,6 +273,7 @@ impl SweepValue {
             SweepValue::Coherent(_) => "coherent window (bins)",
             SweepValue::DopplerAgreement(_) => "Doppler agreement (bins)",
             SweepValue::WindowGate(_) => "CFAR window gate (dB)",
+            SweepValue::JointElevation(_) => "joint elevation fit",
         }
     }
 
@@ -285,6 +288,7 @@ impl SweepValue {
             SweepValue::Coherent(c) => format!("{c}"),
             SweepValue::DopplerAgreement(g) => format!("{g}"),
             SweepValue::WindowGate(g) => format!("{g}"),
+            SweepValue::JointElevation(on) => String::from(if *on { "on" } else { "off" }),
         }
     }
 
@@ -304,6 +308,7 @@ impl SweepValue {
             SweepValue::Coherent(c) => params.coherent_doppler_bins = c,
             SweepValue::DopplerAgreement(g) => params.doppler_agreement_bins = g,
             SweepValue::WindowGate(g) => params.cfar.window_gate_db = g,
+            SweepValue::JointElevation(on) => params.joint_elevation = on,
         }
         params
     }
@@ -342,6 +347,9 @@ pub fn defaults_sweep() -> Vec<SweepValue> {
     }
     for g in [0.0, 6.0, 9.0, 12.0, 15.0, 20.0] {
         v.push(SweepValue::WindowGate(g));
+    }
+    for on in [false, true] {
+        v.push(SweepValue::JointElevation(on));
     }
     v
 }

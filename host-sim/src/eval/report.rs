@@ -398,12 +398,13 @@ fn resolution_section(m: &mut String, e: &Evaluation) {
         is always resolved by Doppler, whatever the angle (its azimuth resolution, the 8-element Rayleigh width of \
         about 14°, never matters here). The DBE chain resolves in angle: Capon separates non-coherent targets well \
         below the Rayleigh width; coherent targets cancel partly in the Capon covariance, and forward–backward averaging \
-        of the azimuth line restores rank 2 for most phase differences, so their azimuths are often found. Their \
-        elevations are not: the elevation stage uses the 12-element covariance without forward–backward averaging \
-        (the array is not centro-symmetric), which stays rank 1 for a coherent pair, and the two points' elevations \
-        are off by several degrees (last columns: elevation RMSE of the resolved points). A coherent pair \
-        \"resolved\" closer than the non-coherent limit is such a distorted split, not a measurement of both \
-        targets.\n");
+        of the azimuth line restores rank 2 for most phase differences, so their azimuths are often found. The full \
+        12-element covariance of the elevation stage is not averaged (the array is not centro-symmetric: averaging \
+        mirrors +θ onto −θ) and stays rank 1 for a coherent pair, so a detection whose azimuth beam shares its Doppler \
+        with another of its range bin is resolved on the centro-symmetric 2 × 4 sub-array with forward–backward \
+        averaging instead (`Params::coherent_doppler_bins`); the last columns give the elevation RMSE of the resolved \
+        points. How often a coherent pair is split depends on the phase difference of the two returns as well as on \
+        their separation, which is why it is not zero below the separation where non-coherent pairs start to split.\n");
 }
 
 fn chamfer_section(m: &mut String, e: &Evaluation) {
