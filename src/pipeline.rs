@@ -124,17 +124,20 @@ pub struct Params {
     /// `0` turns it off (the paper's chain).
     pub doppler_agreement_bins: f32,
     /// Joint elevation fit of the points of each range bin (see [`crate::joint`]): after
-    /// the Capon sweeps, the elevations of a range bin's 2 to [`crate::joint::MAX_SOURCES`]
-    /// points are re-fitted together on the bin's raw covariance by alternating projection,
-    /// each with its own TDM slot phase, the points of the two neighbouring range bins
-    /// included as sources. Measured: on two coherent pairs two range bins apart seen from a
-    /// sensor moving at 1.5 m/s (`host-sim/tests/harness.rs`, six seeds) the elevation RMSE
-    /// falls from 0.77° to 0.074°. Off by default and in the paper's chain: with it on (all
-    /// else default, `dbe eval`), the extended scenes lose a little (mean Chamfer 0.98 →
-    /// 0.99 m, false points per frame 0.94 → 1.21), the static coherent pairs' elevations
-    /// get worse (0.13° → 0.23° RMSE at 20 dB), and odometry drift falls on the outdoor
-    /// sequence (2.99 → 1.63 %) but rises on the other three (0.46/0.23/0.35 →
-    /// 0.70/0.43/0.42 %). Surfaces are not a few point sources per range bin.
+    /// the Capon sweeps, the elevations of a range bin's points are re-fitted together on the
+    /// bin's raw covariance by alternating projection, each point a source with its own TDM
+    /// slot phase, the points of the two neighbouring range bins included, each moving at
+    /// most [`crate::joint::SEARCH_BINS`] from its Capon elevation. Measured: on two coherent
+    /// pairs two range bins apart seen from a sensor moving at 1.5 m/s
+    /// (`host-sim/tests/harness.rs`, six seeds) the elevation RMSE falls from 0.77° to
+    /// 0.074°; in `dbe eval`'s defaults sweep it lowers the false points per scene frame
+    /// from 0.84 to 0.79 and the Chamfer distance from 0.974 to 0.972 m. Off by default
+    /// and in the paper's chain: with it on in every DBE variant of `dbe eval` (the default
+    /// switched), non-coherent pairs 8° apart at 20 dB get better elevations (0.24° → 0.14°
+    /// RMSE) but coherent ones worse (0.12° → 0.38°: the fit replaces their sub-array
+    /// elevations, and why it does worse on a static coherent pair is not yet known), and
+    /// odometry drift falls on two simulated sequences and rises on two (XYZ hallways,
+    /// outdoors, aspen, army 0.46/2.99/0.23/0.35 → 0.40/2.53/0.35/0.43 %).
     pub joint_elevation: bool,
     /// Azimuth grid: first and last angle, degrees (the grid size is a const generic).
     pub azimuth_span_deg: (f32, f32),
