@@ -141,13 +141,15 @@ fn objective<const M: usize>(r: &Matrix<M>, basis: &Basis<M>, a: &[Complex32; M]
 
 /// Fit the elevations of `sources` on the range bin's covariance `r` (see the module
 /// documentation): at most `sweeps` passes of alternating projection over the `NEL`
-/// elevation steering rows `el_steer`. Fewer than two sources, or more than
-/// [`MAX_SOURCES`], are left unchanged.
+/// elevation steering rows `el_steer`, then, with `refine`, each source's sub-bin offset
+/// (`frac` stays as given without). Fewer than two sources, or more than [`MAX_SOURCES`],
+/// are left unchanged.
 pub fn fit<const M: usize, const NEL: usize>(
     r: &Matrix<M>,
     el_steer: &[[Complex32; M]; NEL],
     sources: &mut [Source<M>],
     sweeps: u8,
+    refine: bool,
 ) {
     if sources.len() < 2 || sources.len() > MAX_SOURCES || NEL < 3 {
         return;
@@ -178,6 +180,9 @@ pub fn fit<const M: usize, const NEL: usize>(
         if !moved {
             break;
         }
+    }
+    if !refine {
+        return;
     }
     for s in 0..sources.len() {
         let j = sources[s].bin;
@@ -302,7 +307,7 @@ mod tests {
         for coherent in [false, true] {
             let (r, mut sources, truth) = scene(coherent);
             let table = el_table(&layout().1);
-            fit(&r, &table, &mut sources, 4);
+            fit(&r, &table, &mut sources, 4, true);
             for (s, t) in sources.iter().zip(truth.iter()) {
                 assert_eq!(s.bin, *t, "coherent {coherent}: {sources:?}");
                 // On the grid, the objective's log-parabola peak stays within a tenth of a bin.
@@ -318,7 +323,7 @@ mod tests {
         // Source 0 started two windows away from its truth: it ends at the window's edge
         // nearest the truth, the others still find theirs.
         sources[0].bin = truth[0] + 2 * SEARCH_BINS;
-        fit(&r, &table, &mut sources, 4);
+        fit(&r, &table, &mut sources, 4, true);
         assert_eq!(sources[0].bin, truth[0] + SEARCH_BINS, "{sources:?}");
         for (s, t) in sources.iter().zip(truth.iter()).skip(1) {
             assert_eq!(s.bin, *t, "{sources:?}");
@@ -330,10 +335,10 @@ mod tests {
         let (r, sources, _) = scene(false);
         let table = el_table(&layout().1);
         let mut one = [sources[0]];
-        fit(&r, &table, &mut one, 4);
+        fit(&r, &table, &mut one, 4, true);
         assert_eq!(one[0], sources[0]);
         let mut many = [sources[0]; MAX_SOURCES + 1];
-        fit(&r, &table, &mut many, 4);
+        fit(&r, &table, &mut many, 4, true);
         assert!(many.iter().all(|s| *s == sources[0]));
     }
 }

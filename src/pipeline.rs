@@ -432,14 +432,10 @@ impl<
         self.az_mu = sine_grid::<NAZ>(params.azimuth_span_deg);
         self.el_nu = sine_grid::<NEL>(params.elevation_span_deg);
         for (row, mu) in self.az_steer.iter_mut().zip(self.az_mu.iter()) {
-            for (a, pos) in row.iter_mut().zip(layout.az.iter()) {
-                *a = Complex32::from_polar(1.0, -kappa * mu * pos);
-            }
+            phase_row(kappa * mu, &layout.az, row);
         }
         for (row, nu) in self.el_steer.iter_mut().zip(self.el_nu.iter()) {
-            for (a, pos) in row.iter_mut().zip(layout.el.iter()) {
-                *a = Complex32::from_polar(1.0, -kappa * nu * pos);
-            }
+            phase_row(kappa * nu, &layout.el, row);
         }
         self.line_phase_per_mu = match (layout.az.first(), layout.az.get(1)) {
             (Some(a0), Some(a1)) => kappa * (a1 - a0),
@@ -668,7 +664,8 @@ impl<
                 }
                 frame.snapshots(usize::from(b), block);
                 covariance(&block[..], &mut cov);
-                joint::fit(&cov, &self.el_steer, &mut sources[..n], SWEEPS);
+                let refine = self.params.subgrid;
+                joint::fit(&cov, &self.el_steer, &mut sources[..n], SWEEPS, refine);
                 for (s, &k) in sources.iter().zip(member.iter()).take(own) {
                     self.set_elevation(&mut points[k], s);
                 }
@@ -681,12 +678,7 @@ impl<
     /// rotation of its own Doppler (within the agreement window of its beam's, a phase error
     /// of at most 2π·1.5·(TX − 1)/(K·TX) on the last slot), started at its elevation bin.
     fn joint_source(&self, p: &Point) -> Source<M> {
-        let range = p.position.length();
-        let mu = if range > 0.0 {
-            -p.position.y / range
-        } else {
-            0.0
-        };
+        let (_, mu) = range_and_mu(p).unwrap_or((0.0, 0.0));
         let rot = match self.params.tdm_compensation && self.doppler_bin_mps != 0.0 {
             true => {
                 tdm::rotation::<K, TX, M>(&self.layout.slot, p.velocity_mps / self.doppler_bin_mps)
@@ -694,8 +686,9 @@ impl<
             false => [ONE; M],
         };
         let mut base = [ZERO; M];
-        for ((b, pos), r) in base.iter_mut().zip(self.layout.az.iter()).zip(rot.iter()) {
-            *b = Complex32::from_polar(1.0, -self.kappa * mu * pos) * r.conj();
+        phase_row(self.kappa * mu, &self.layout.az, &mut base);
+        for (b, r) in base.iter_mut().zip(rot.iter()) {
+            *b *= r.conj();
         }
         Source {
             base,
@@ -706,11 +699,9 @@ impl<
 
     /// Give `p` the elevation of the fitted source `s`, keeping its range and azimuth.
     fn set_elevation(&self, p: &mut Point, s: &Source<M>) {
-        let range = p.position.length();
-        if !(range > 0.0) {
+        let Some((range, mu)) = range_and_mu(p) else {
             return;
-        }
-        let mu = -p.position.y / range;
+        };
         let nu = match self.params.subgrid {
             true => sine_at(self.params.elevation_span_deg, NEL, s.bin as f32 + s.frac),
             false => self.el_nu[s.bin.min(NEL - 1)],
@@ -1032,6 +1023,20 @@ impl<
         }
         i
     }
+}
+
+/// `row[m] = exp(−j·k·pos_m)`: a steering row for phase `k` per unit position (κ times a
+/// direction cosine), written in place (the steering tables are filled row by row).
+fn phase_row<const M: usize>(k: f32, pos: &[f32; M], row: &mut [Complex32; M]) {
+    for (a, p) in row.iter_mut().zip(pos.iter()) {
+        *a = Complex32::from_polar(1.0, -k * p);
+    }
+}
+
+/// A point's range and azimuth direction cosine `μ = −y/r`; `None` at the origin.
+fn range_and_mu(p: &Point) -> Option<(f32, f32)> {
+    let range = p.position.length();
+    (range > 0.0).then(|| (range, -p.position.y / range))
 }
 
 /// What TDM compensation decided for one detection.

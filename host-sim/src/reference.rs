@@ -1683,8 +1683,7 @@ fn joint_elevations(
                 .iter()
                 .map(|&k| {
                     let p = &points[k];
-                    let range = (p.x * p.x + p.y * p.y + p.z * p.z).sqrt();
-                    let mu = if range > 0.0 { -p.y / range } else { 0.0 };
+                    let (_, mu) = range_and_mu(p);
                     let v = if params.tdm_compensation {
                         p.doppler
                     } else {
@@ -1778,8 +1777,7 @@ fn joint_elevations(
                     false => setup.el_nu[j],
                 };
                 let p = &mut points[k];
-                let range = (p.x * p.x + p.y * p.y + p.z * p.z).sqrt();
-                let mu = if range > 0.0 { -p.y / range } else { 0.0 };
+                let (range, mu) = range_and_mu(p);
                 let cos2 = 1.0 - mu * mu - nu * nu;
                 margin.note(mu * mu + nu * nu, 1.0);
                 if cos2 > 0.0 {
@@ -1795,6 +1793,12 @@ fn joint_elevations(
         }
         start += own;
     }
+}
+
+/// A point's range and azimuth direction cosine `μ = −y/r` (0 at the origin).
+fn range_and_mu(p: &PointRecord) -> (f64, f64) {
+    let range = (p.x * p.x + p.y * p.y + p.z * p.z).sqrt();
+    (range, if range > 0.0 { -p.y / range } else { 0.0 })
 }
 
 /// The elevation peaks kept by the rules of [`ElevationParams`], strongest first, with the
