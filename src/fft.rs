@@ -17,6 +17,8 @@
 //! `f32`, so the table sits in flash (4 KiB), costs no setup and no RAM; an `N`-point
 //! transform reads every `MAX_FFT_SIZE / N`-th entry.
 
+use core::ops::{Add, Sub};
+
 use num_complex::Complex32;
 
 /// Largest FFT size (samples per chirp or loops per frame) the table covers.
@@ -74,6 +76,109 @@ const fn twiddle_table() -> [Complex32; MAX_FFT_SIZE] {
     t
 }
 
+/// What the FFT transforms: one complex number ([`Complex32`]), or the same bin of `L`
+/// independent transforms side by side ([`Lanes`]).
+///
+/// The transform only adds, subtracts, multiplies by a twiddle and by `−j`; an
+/// implementation must do exactly the `f32` operations of [`Complex32`]'s, in its order, per
+/// lane, so that every lane of a [`Lanes`] transform is bit-identical to the transform of
+/// that lane alone.
+pub trait FftValue: Copy + Add<Output = Self> + Sub<Output = Self> {
+    /// `self · w` (a complex product, `num_complex`'s formula).
+    fn times(self, w: Complex32) -> Self;
+    /// `(self + (−j)·b, self − (−j)·b)`.
+    fn plus_minus_neg_j(self, b: Self) -> (Self, Self);
+}
+
+impl FftValue for Complex32 {
+    #[inline(always)]
+    fn times(self, w: Complex32) -> Self {
+        self * w
+    }
+
+    #[inline(always)]
+    fn plus_minus_neg_j(self, b: Self) -> (Self, Self) {
+        // −j·b = (b.im, −b.re).
+        (
+            Complex32::new(self.re + b.im, self.im - b.re),
+            Complex32::new(self.re - b.im, self.im + b.re),
+        )
+    }
+}
+
+/// The same bin of `L` transforms, real and imaginary parts in separate arrays: on a core
+/// with SIMD registers (`L = 4`: SSE, NEON) each operation is one vector instruction, so `L`
+/// transforms cost about one (the host's range FFT of a chirp's 4 RX channels; issue 13).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lanes<const L: usize> {
+    /// Real parts, one per transform.
+    pub re: [f32; L],
+    /// Imaginary parts, one per transform.
+    pub im: [f32; L],
+}
+
+impl<const L: usize> Lanes<L> {
+    /// All lanes zero.
+    pub const ZERO: Self = Self {
+        re: [0.0; L],
+        im: [0.0; L],
+    };
+
+    /// Lane `l` as a complex number (`l < L`).
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> Complex32 {
+        Complex32::new(self.re[l], self.im[l])
+    }
+}
+
+impl<const L: usize> Add for Lanes<L> {
+    type Output = Self;
+    #[inline(always)]
+    fn add(mut self, b: Self) -> Self {
+        for l in 0..L {
+            self.re[l] += b.re[l];
+            self.im[l] += b.im[l];
+        }
+        self
+    }
+}
+
+impl<const L: usize> Sub for Lanes<L> {
+    type Output = Self;
+    #[inline(always)]
+    fn sub(mut self, b: Self) -> Self {
+        for l in 0..L {
+            self.re[l] -= b.re[l];
+            self.im[l] -= b.im[l];
+        }
+        self
+    }
+}
+
+impl<const L: usize> FftValue for Lanes<L> {
+    #[inline(always)]
+    fn times(self, w: Complex32) -> Self {
+        let mut out = self;
+        for l in 0..L {
+            out.re[l] = self.re[l] * w.re - self.im[l] * w.im;
+            out.im[l] = self.re[l] * w.im + self.im[l] * w.re;
+        }
+        out
+    }
+
+    #[inline(always)]
+    fn plus_minus_neg_j(self, b: Self) -> (Self, Self) {
+        let (mut p, mut m) = (self, self);
+        for l in 0..L {
+            p.re[l] = self.re[l] + b.im[l];
+            p.im[l] = self.im[l] - b.re[l];
+            m.re[l] = self.re[l] - b.im[l];
+            m.im[l] = self.im[l] + b.re[l];
+        }
+        (p, m)
+    }
+}
+
 /// Bit reversal of `i` over `bits` bits (`1 ≤ bits ≤ 31`).
 #[inline(always)]
 fn reverse(i: usize, bits: u32) -> usize {
@@ -110,7 +215,7 @@ pub fn fft_in_place<const N: usize>(buf: &mut [Complex32; N]) {
 /// assert_eq!(out[1], Complex32::new(-1.0, 1.0));
 /// ```
 #[inline]
-pub fn fft_from<const N: usize>(out: &mut [Complex32; N], x: impl Fn(usize) -> Complex32) {
+pub fn fft_from<T: FftValue, const N: usize>(out: &mut [T; N], x: impl Fn(usize) -> T) {
     const { assert!(N.is_power_of_two() && N >= 2 && N <= MAX_FFT_SIZE) };
     let bits = N.trailing_zeros();
     let l = if bits % 2 == 1 {
@@ -138,21 +243,16 @@ pub fn fft_from<const N: usize>(out: &mut [Complex32; N], x: impl Fn(usize) -> C
 
 /// The 4-point DFT `X[q] = Σ_m t_m · (−j)^{mq}`.
 #[inline(always)]
-fn butterfly4(t0: Complex32, t1: Complex32, t2: Complex32, t3: Complex32) -> [Complex32; 4] {
+fn butterfly4<T: FftValue>(t0: T, t1: T, t2: T, t3: T) -> [T; 4] {
     let (s02, d02, s13, d13) = (t0 + t2, t0 - t2, t1 + t3, t1 - t3);
-    // −j·d13 = (d13.im, −d13.re).
-    [
-        s02 + s13,
-        Complex32::new(d02.re + d13.im, d02.im - d13.re),
-        s02 - s13,
-        Complex32::new(d02.re - d13.im, d02.im + d13.re),
-    ]
+    let (p, m) = d02.plus_minus_neg_j(d13);
+    [s02 + s13, p, s02 - s13, m]
 }
 
 /// Radix-4 stages from sub-transforms of length `l` up to `N`. In bit-reversed order the four
 /// length-`l` blocks of a `4l` group hold the sub-transforms of residues 0, 2, 1, 3.
 #[inline(always)]
-fn radix4_stages<const N: usize>(buf: &mut [Complex32; N], mut l: usize) {
+fn radix4_stages<T: FftValue, const N: usize>(buf: &mut [T; N], mut l: usize) {
     while l < N {
         let span = 4 * l;
         // W_{4l}^k = W^{k · MAX/(4l)}; 3k · MAX/(4l) < MAX for k < l.
@@ -172,7 +272,7 @@ fn radix4_stages<const N: usize>(buf: &mut [Complex32; N], mut l: usize) {
                 // the bounds checks.
                 let w = |m: usize| TWIDDLES[(m * k * step) & (MAX_FFT_SIZE - 1)];
                 // Block 1 holds residue 2, block 2 residue 1.
-                let (t0, t2, t1, t3) = (*y0, *y1 * w(2), *y2 * w(1), *y3 * w(3));
+                let (t0, t2, t1, t3) = (*y0, y1.times(w(2)), y2.times(w(1)), y3.times(w(3)));
                 [*y0, *y1, *y2, *y3] = butterfly4(t0, t1, t2, t3);
             }
         }
@@ -238,6 +338,32 @@ mod tests {
             Complex32::new(n as f32, 0.0)
         });
         assert!(seen.iter().all(|&c| c == 1));
+    }
+
+    #[test]
+    fn every_lane_is_the_single_transform_bit_for_bit() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let x: [[Complex32; 128]; 4] = core::array::from_fn(|_| {
+            core::array::from_fn(|_| {
+                Complex32::new(rng.gen_range(-1e4..1e4), rng.gen_range(-1e4..1e4))
+            })
+        });
+        let mut lanes = [Lanes::<4>::ZERO; 128];
+        fft_from(&mut lanes, |n| Lanes {
+            re: core::array::from_fn(|l| x[l][n & 127].re),
+            im: core::array::from_fn(|l| x[l][n & 127].im),
+        });
+        for (l, xl) in x.iter().enumerate() {
+            let mut single = *xl;
+            fft_in_place(&mut single);
+            for (n, (s, v)) in single.iter().zip(lanes.iter()).enumerate() {
+                let v = v.lane(l);
+                assert!(
+                    s.re.to_bits() == v.re.to_bits() && s.im.to_bits() == v.im.to_bits(),
+                    "lane {l} bin {n}: {s} vs {v}"
+                );
+            }
+        }
     }
 
     #[test]

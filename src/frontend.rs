@@ -16,6 +16,8 @@ use num_complex::Complex32;
 
 use crate::config::{AntennaGeometry, ArrayLayout, ConfigError, Param, Waveform};
 use crate::cube::{ChirpId, Cube, Frame, FrameError};
+#[cfg(not(target_arch = "arm"))]
+use crate::fft::Lanes;
 use crate::range::RangeFft;
 use crate::window::WindowKind;
 
@@ -252,9 +254,30 @@ impl<
         };
         let coupling = self.coupling_on.then_some(&self.coupling);
         let mut spectrum = [ZERO; N];
-        for (samples, &row) in chirp.iter().zip(rows.iter()) {
+        // The store takes one channel's spectrum at a time: with SIMD lanes (host) the
+        // chirp's RX channels are transformed together and taken apart here, on a Cortex-M
+        // (no SIMD; a lanes buffer would add RX × N × 8 bytes of stack) one after the other.
+        // Both give bit-identical spectra (`RangeFft::process_lanes`).
+        #[cfg(not(target_arch = "arm"))]
+        let lanes = {
+            let mut lanes = [Lanes::<RX>::ZERO; N];
+            self.range.process_lanes(chirp, &mut lanes);
+            lanes
+        };
+        for (l, (samples, &row)) in chirp.iter().zip(rows.iter()).enumerate() {
             let row = usize::from(row);
-            self.range.process(samples, &mut spectrum);
+            #[cfg(not(target_arch = "arm"))]
+            {
+                let _ = samples;
+                for (s, v) in spectrum.iter_mut().zip(lanes.iter()) {
+                    *s = v.lane(l);
+                }
+            }
+            #[cfg(target_arch = "arm")]
+            {
+                let _ = l;
+                self.range.process(samples, &mut spectrum);
+            }
             if let Some(c) = coupling.and_then(|c| c.get(row)) {
                 for (s, c) in spectrum.iter_mut().zip(c.iter()) {
                     *s -= *c;

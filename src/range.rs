@@ -3,7 +3,7 @@
 
 use num_complex::Complex32;
 
-use crate::fft::fft_from;
+use crate::fft::{fft_from, Lanes};
 
 /// Range processing of one chirp of one virtual antenna, with its window table.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,5 +58,67 @@ impl<const N: usize> RangeFft<N> {
             let (s, w) = (x[n & (N - 1)], w[n & (N - 1)]);
             (Complex32::new(f32::from(s[0]), f32::from(s[1])) - mean) * w
         });
+    }
+
+    /// [`Self::process`] of `L` channels at once, lane `l` of `out` the spectrum of
+    /// `samples[l]`: bit-identical to `L` calls of `process` (the same `f32` operations in
+    /// the same order, per lane), and on a core with 4-wide SIMD about as fast as one.
+    pub fn process_lanes<const L: usize>(
+        &self,
+        samples: &[[[i16; 2]; N]; L],
+        out: &mut [Lanes<L>; N],
+    ) {
+        const { assert!(N <= 1 << 16) };
+        let mut mean = Lanes::<L>::ZERO;
+        for (l, channel) in samples.iter().enumerate() {
+            let mut sum = [0i32; 2];
+            for s in channel.iter() {
+                sum[0] += i32::from(s[0]);
+                sum[1] += i32::from(s[1]);
+            }
+            mean.re[l] = sum[0] as f32 / N as f32;
+            mean.im[l] = sum[1] as f32 / N as f32;
+        }
+        let w = &self.window;
+        fft_from(out, |n| {
+            let (n, mut v) = (n & (N - 1), Lanes::<L>::ZERO);
+            for l in 0..L {
+                let s = samples[l][n];
+                v.re[l] = (f32::from(s[0]) - mean.re[l]) * w[n];
+                v.im[l] = (f32::from(s[1]) - mean.im[l]) * w[n];
+            }
+            v
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::window::WindowKind;
+
+    #[test]
+    fn the_lanes_path_is_the_per_channel_path_bit_for_bit() {
+        let fft = RangeFft::<256>::new(WindowKind::Blackman);
+        let mut state = 7u32;
+        let chirp: [[[i16; 2]; 256]; 4] = core::array::from_fn(|_| {
+            core::array::from_fn(|_| {
+                state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                [(state >> 16) as i16, (state >> 3) as i16 >> 2]
+            })
+        });
+        let mut lanes = [Lanes::<4>::ZERO; 256];
+        fft.process_lanes(&chirp, &mut lanes);
+        let mut one = [Complex32::new(0.0, 0.0); 256];
+        for (l, channel) in chirp.iter().enumerate() {
+            fft.process(channel, &mut one);
+            for (n, (s, v)) in one.iter().zip(lanes.iter()).enumerate() {
+                let v = v.lane(l);
+                assert!(
+                    s.re.to_bits() == v.re.to_bits() && s.im.to_bits() == v.im.to_bits(),
+                    "channel {l} bin {n}: {s} vs {v}"
+                );
+            }
+        }
     }
 }
