@@ -42,15 +42,7 @@ impl<const N: usize> RangeFft<N> {
     /// assert!((out[1].norm() - 8000.0).abs() < 8.0);
     /// ```
     pub fn process(&self, samples: &[[i16; 2]; N], out: &mut [Complex32; N]) {
-        // |Σ| ≤ N · 32768 ≤ 2^24 for N ≤ 512: i32 cannot overflow (an i64 sum is two adds
-        // per sample on a 32-bit core).
-        const { assert!(N <= 1 << 16) };
-        let mut sum = [0i32; 2];
-        for s in samples.iter() {
-            sum[0] += i32::from(s[0]);
-            sum[1] += i32::from(s[1]);
-        }
-        let mean = Complex32::new(sum[0] as f32 / N as f32, sum[1] as f32 / N as f32);
+        let mean = dc_mean(samples);
         // DC removal and window inside the FFT's first pass (`n & (N − 1)` is `n`: the mask
         // only lets the compiler drop the bounds checks).
         let (w, x) = (&self.window, samples);
@@ -68,16 +60,10 @@ impl<const N: usize> RangeFft<N> {
         samples: &[[[i16; 2]; N]; L],
         out: &mut [Lanes<L>; N],
     ) {
-        const { assert!(N <= 1 << 16) };
         let mut mean = Lanes::<L>::ZERO;
         for (l, channel) in samples.iter().enumerate() {
-            let mut sum = [0i32; 2];
-            for s in channel.iter() {
-                sum[0] += i32::from(s[0]);
-                sum[1] += i32::from(s[1]);
-            }
-            mean.re[l] = sum[0] as f32 / N as f32;
-            mean.im[l] = sum[1] as f32 / N as f32;
+            let m = dc_mean(channel);
+            (mean.re[l], mean.im[l]) = (m.re, m.im);
         }
         let w = &self.window;
         fft_from(out, |n| {
@@ -90,6 +76,20 @@ impl<const N: usize> RangeFft<N> {
             v
         });
     }
+}
+
+/// The complex DC mean of one chirp's samples.
+#[inline(always)]
+fn dc_mean<const N: usize>(samples: &[[i16; 2]; N]) -> Complex32 {
+    // |Σ| ≤ N · 32768 ≤ 2^24 for N ≤ 512: i32 cannot overflow (an i64 sum is two adds
+    // per sample on a 32-bit core).
+    const { assert!(N <= 1 << 16) };
+    let mut sum = [0i32; 2];
+    for s in samples.iter() {
+        sum[0] += i32::from(s[0]);
+        sum[1] += i32::from(s[1]);
+    }
+    Complex32::new(sum[0] as f32 / N as f32, sum[1] as f32 / N as f32)
 }
 
 #[cfg(test)]
