@@ -77,6 +77,20 @@ impl<const D: usize> Capon<D> {
         }
     }
 
+    /// The quadratic forms of two vectors, `(aᴴR⁻¹a, bᴴR⁻¹b, aᴴR⁻¹b)`, from one whitening
+    /// of each: the terms of `(a + t·b)ᴴR⁻¹(a + t·b) = aᴴR⁻¹a + |t|²·bᴴR⁻¹b + 2·Re(t·aᴴR⁻¹b)`
+    /// ([`crate::elevation::TwoLevel`]).
+    pub fn forms(&self, a: &[Complex32; D], b: &[Complex32; D]) -> (f32, f32, Complex32) {
+        let (za, zb) = (self.whiten(a), self.whiten(b));
+        let (mut aa, mut bb, mut ab) = (0.0f32, 0.0f32, Complex32::new(0.0, 0.0));
+        for (x, y) in za.iter().zip(zb.iter()) {
+            aa += x.norm_sqr();
+            bb += y.norm_sqr();
+            ab += x.conj() * y;
+        }
+        (aa, bb, ab)
+    }
+
     /// Capon weight `w = R⁻¹ a / (aᴴ R⁻¹ a)`; distortionless: `wᴴ a = 1`.
     pub fn weight(&self, a: &[Complex32; D]) -> [Complex32; D] {
         let z = self.whiten(a);

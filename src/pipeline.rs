@@ -889,21 +889,32 @@ impl<
         let Some(el) = Capon::<M>::new(&r) else {
             return;
         };
-        let steer = |j: usize| {
-            let a = elevation::steering(&self.az_steer[i], &self.el_steer[j]);
-            sub.map_or(a, |sub| sub.restrict(&a))
-        };
+        let restrict = |a: [Complex32; M]| sub.map_or(a, |sub| sub.restrict(&a));
+        let steer = |j: usize| restrict(elevation::steering(&self.az_steer[i], &self.el_steer[j]));
+        // The steering vectors are `a_lo + t_j·a_hi` (the line's and the elevation row's
+        // parts, `t_j` the row's factor of bin `j`): the spectrum in closed form.
+        let (mut a_lo, mut a_hi) = (self.az_steer[i], self.az_steer[i]);
+        for (m, (lo, hi)) in a_lo.iter_mut().zip(a_hi.iter_mut()).enumerate() {
+            *if m < AZ { hi } else { lo } = ZERO;
+        }
+        let spectrum = elevation::TwoLevel::new(&el, &restrict(a_lo), &restrict(a_hi));
         let mut s = [0.0f32; NEL];
         let peaks = if AZ < M {
-            elevation::sweep(&el, steer, &self.params.elevation, &mut s)
+            elevation::sweep(
+                &spectrum,
+                |j| self.el_steer[j][AZ],
+                &self.params.elevation,
+                &mut s,
+            )
         } else {
-            // No elevation row: one direction, on the line (ν = 0, the bin nearest to it).
+            // No elevation row (`a_hi = 0`): one direction, on the line (ν = 0, the bin
+            // nearest to it).
             let j = usize::from(elevation::nearest_bin::<NEL>(
                 0.0,
                 self.params.elevation_span_deg,
             ));
             let mut one: elevation::Peaks = Default::default();
-            one[0] = Some((j, el.power(&steer(j))));
+            one[0] = Some((j, spectrum.power_at(ONE)));
             one
         };
 
@@ -922,8 +933,14 @@ impl<
             let nu = if AZ == M {
                 0.0
             } else if subgrid {
-                let frac = parabolic_offset(s[j - 1], s[j], s[j + 1]);
-                sine_at(self.params.elevation_span_deg, NEL, j as f32 + frac)
+                // The exact peak of the sinusoid, within half a bin of the grid peak.
+                let span = self.params.elevation_span_deg;
+                let (lo, hi) = (
+                    sine_at(span, NEL, j as f32 - 0.5),
+                    sine_at(span, NEL, j as f32 + 0.5),
+                );
+                let kappa_delta = self.kappa * self.layout.el[AZ.min(M - 1)];
+                spectrum.peak_nu(kappa_delta, self.el_nu[j], lo.min(hi), lo.max(hi))
             } else {
                 self.el_nu[j]
             };

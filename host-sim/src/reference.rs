@@ -81,8 +81,10 @@
 //!   the logarithms of the peak and its two neighbours (clamped to `±½`, 0 unless the centre
 //!   is the largest of three positive values): range along the RA-map column of the
 //!   detection, azimuth along its RA row (or, under TDM compensation, along the compensated
-//!   azimuth spectrum at the climbed bin), elevation along the elevation spectrum, Doppler
-//!   along the circular Doppler spectrum. The sweep and the Capon weights stay on the grid.
+//!   azimuth spectrum at the climbed bin), Doppler along the circular Doppler spectrum. The
+//!   elevation is the exact peak of the elevation spectrum within half a bin of its grid peak
+//!   (`Setup::elevation_peak_nu`: on an array of two elevation levels the spectrum is a
+//!   sinusoid in `κ·Δ·ν`). The sweep and the Capon weights stay on the grid.
 //!   The azimuth then moves to the peak of the azimuth line's Capon spectrum within half a
 //!   bin of the climbed bin: Newton's method on `q(μ) = bᴴR⁻¹b` from the log-parabola's μ
 //!   (`Setup::line_peak_mu`).
@@ -641,6 +643,42 @@ impl Setup {
                 Complex64::from_polar(1.0, -self.kappa * (mu * e.az + nu * e.el))
             }),
         )
+    }
+
+    /// The ν in `[lo, hi]` where the elevation spectrum of `el` (on `rows`, at azimuth `mu`)
+    /// peaks nearest to `near`. The array's elements lie on two elevation levels (0 and the
+    /// elevation row's `Δ`), so `q(ν) = aᴴR⁻¹a` is `c₀ + 2·Re(c₁·e^{−jψ})` in `ψ = κ·Δ·ν`;
+    /// `c₀`, `c₁` from `q` at `ψ = 0, π/2, π` (`q = c₀ + 2·Re c₁`, `c₀ + 2·Im c₁`,
+    /// `c₀ − 2·Re c₁`), and `q` is smallest at `ψ = arg c₁ − π` (mod 2π). The core forms
+    /// `c₀`, `c₁` from the line's and the row's parts of the steering vector instead.
+    fn elevation_peak_nu(
+        &self,
+        el: &Capon,
+        rows: &[usize],
+        mu: f64,
+        near: f64,
+        (lo, hi): (f64, f64),
+    ) -> f64 {
+        let delta = self
+            .array
+            .elements
+            .get(self.array.line)
+            .map_or(0.0, |e| e.el);
+        let kd = self.kappa * delta;
+        if kd == 0.0 {
+            return near.clamp(lo, hi);
+        }
+        let q = |psi: f64| el.solve(&self.steering_on(rows, mu, psi / kd)).1;
+        let (q0, q1, q2) = (q(0.0), q(PI / 2.0), q(PI));
+        let c0 = (q0 + q2) / 2.0;
+        let c1 = Complex64::new((q0 - q2) / 4.0, (q1 - c0) / 2.0);
+        let psi = c1.arg() - PI;
+        let nu = (psi + ((kd * near - psi) / (2.0 * PI)).round() * 2.0 * PI) / kd;
+        if nu.is_finite() {
+            nu.clamp(lo, hi)
+        } else {
+            near.clamp(lo, hi)
+        }
     }
 
     /// The Doppler test (`Params::doppler_test_db`, beyond the spec) of a slow-time signal: the
@@ -1595,8 +1633,12 @@ fn resolve(
         let nu_point = if line_only {
             0.0
         } else if params.subgrid {
-            let frac = log_parabola_vertex(spectrum[j - 1], spectrum[j], spectrum[j + 1]);
-            grid_sine(params.elevation_span_deg, nel, j as f64 + frac)
+            let span = params.elevation_span_deg;
+            let (lo, hi) = (
+                grid_sine(span, nel, j as f64 - 0.5),
+                grid_sine(span, nel, j as f64 + 0.5),
+            );
+            setup.elevation_peak_nu(&el, &rows, mu, nu, (lo.min(hi), lo.max(hi)))
         } else {
             nu
         };
