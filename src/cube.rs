@@ -21,6 +21,9 @@ use core::fmt;
 
 use num_complex::Complex32;
 
+#[cfg(not(target_arch = "arm"))]
+use crate::fft::Lanes;
+
 /// One stored range-FFT value: `[re, im]` mantissas of its chirp's block exponent.
 pub type CubeSample = [i16; 2];
 
@@ -185,14 +188,7 @@ impl<'a, const N: usize, const K: usize, const M: usize> Cube<'a, N, K, M> {
             }
             return;
         }
-        // Smallest e with peak · 2^−e ≤ 32767: writing peak/32767 = f · 2^e with f ∈ [½, 1)
-        // (frexp), e is the float's biased exponent − 126.
-        let e = if peak > 0.0 {
-            let biased = ((peak / 32767.0).to_bits() >> 23) & 0xff;
-            (biased as i32 - 126).clamp(-EXPONENT_LIMIT, EXPONENT_LIMIT)
-        } else {
-            0
-        };
+        let e = block_exponent(peak);
         self.exponent[row][k] = e as i8;
         // Every |component| · 2^−e is now ≤ 32767 (e never clamps from above: a finite f32
         // is below 32767 · 2^125), so the rounding needs no saturation. Indices were checked
@@ -201,6 +197,66 @@ impl<'a, const N: usize, const K: usize, const M: usize> Cube<'a, N, K, M> {
         for (bin, v) in self.bins.iter_mut().zip(spectrum.iter()) {
             bin[row][k] = [round_small(v.re * scale), round_small(v.im * scale)];
         }
+    }
+}
+
+#[cfg(not(target_arch = "arm"))]
+impl<const N: usize, const K: usize, const M: usize> Cube<'_, N, K, M> {
+    /// [`Self::store`] of one chirp's `L` channels at once, lane `l` of `spectra` the spectrum
+    /// of row `rows[l]`: bit-identical to `L` calls of `store` (the same `f32` operations per
+    /// lane), with the peaks, exponents and roundings of all lanes side by side (SIMD on a
+    /// host) and one pass over the range bins.
+    pub(crate) fn store_lanes<const L: usize>(
+        &mut self,
+        rows: &[u8; L],
+        k: usize,
+        spectra: &[Lanes<L>; N],
+    ) {
+        const ABS: u32 = 0x7fff_ffff;
+        let mut peak = [0u32; L];
+        for v in spectra.iter() {
+            for l in 0..L {
+                peak[l] = peak[l]
+                    .max(v.re[l].to_bits() & ABS)
+                    .max(v.im[l].to_bits() & ABS);
+            }
+        }
+        let all_finite = peak.iter().all(|&p| f32::from_bits(p).is_finite());
+        if k >= K || rows.iter().any(|&r| usize::from(r) >= M) || !all_finite {
+            // Off the cube or an infinite component: one row at a time, checked.
+            for (l, &row) in rows.iter().enumerate() {
+                let spectrum: [Complex32; N] = core::array::from_fn(|n| spectra[n].lane(l));
+                self.store(usize::from(row), k, &spectrum);
+            }
+            return;
+        }
+        let mut scale = [0.0f32; L];
+        for l in 0..L {
+            let e = block_exponent(f32::from_bits(peak[l]));
+            self.exponent[usize::from(rows[l])][k] = e as i8;
+            scale[l] = pow2(-e);
+        }
+        for (bin, v) in self.bins.iter_mut().zip(spectra.iter()) {
+            for l in 0..L {
+                bin[usize::from(rows[l])][k] = [
+                    round_small(v.re[l] * scale[l]),
+                    round_small(v.im[l] * scale[l]),
+                ];
+            }
+        }
+    }
+}
+
+/// The block exponent of a chirp whose largest component is `peak` (finite, ≥ 0): the
+/// smallest `e` with `peak · 2^−e ≤ 32767`. Writing `peak/32767 = f · 2^e` with `f ∈ [½, 1)`
+/// (frexp), `e` is the float's biased exponent − 126; 0 for a zero chirp.
+#[inline]
+fn block_exponent(peak: f32) -> i32 {
+    if peak > 0.0 {
+        let biased = ((peak / 32767.0).to_bits() >> 23) & 0xff;
+        (biased as i32 - 126).clamp(-EXPONENT_LIMIT, EXPONENT_LIMIT)
+    } else {
+        0
     }
 }
 
@@ -299,6 +355,42 @@ fn quantise(x: f32) -> i16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The lanes store writes the same mantissas and exponents as one `store` per row, for
+    /// spectra of very different scales, a zero one, and (the checked path) an infinite one.
+    #[test]
+    fn the_lanes_store_is_the_row_store_bit_for_bit() {
+        const N: usize = 16;
+        const K: usize = 2;
+        const M: usize = 6;
+        let scales = [3.0e4f32, 1.0e-3, 0.0, 7.5];
+        let spectra: [Lanes<4>; N] = core::array::from_fn(|n| {
+            let mut v = Lanes::<4>::ZERO;
+            for (l, s) in scales.iter().enumerate() {
+                let x = (n * 7 + l * 3) as f32;
+                v.re[l] = s * libm::sinf(x) * (1.0 + 0.37 * l as f32);
+                v.im[l] = s * libm::cosf(1.3 * x);
+            }
+            v
+        });
+        let rows = [5u8, 1, 3, 0];
+        for infinite in [false, true] {
+            let mut spectra = spectra;
+            if infinite {
+                spectra[3].im[2] = f32::INFINITY;
+            }
+            let (mut a, mut b) = ([[[[0i16; 2]; K]; M]; N], [[[[0i16; 2]; K]; M]; N]);
+            let (mut lanes, mut single) = (Cube::new(&mut a), Cube::new(&mut b));
+            lanes.store_lanes(&rows, 1, &spectra);
+            for (l, &row) in rows.iter().enumerate() {
+                let spectrum: [Complex32; N] = core::array::from_fn(|n| spectra[n].lane(l));
+                single.store(usize::from(row), 1, &spectrum);
+            }
+            assert_eq!(lanes.exponent, single.exponent, "infinite {infinite}");
+            assert_eq!(lanes.bins, single.bins, "infinite {infinite}");
+            assert!(lanes.bins.iter().any(|bin| bin[5][1] != [0, 0]));
+        }
+    }
 
     #[test]
     fn the_integer_peak_is_the_float_peak() {

@@ -253,37 +253,40 @@ impl<
             return Ok(());
         };
         let coupling = self.coupling_on.then_some(&self.coupling);
-        let mut spectrum = [ZERO; N];
-        // The store takes one channel's spectrum at a time: with SIMD lanes (host) the
-        // chirp's RX channels are transformed together and taken apart here, on a Cortex-M
-        // (no SIMD; a lanes buffer would add RX × N × 8 bytes of stack) one after the other.
-        // Both give bit-identical spectra (`RangeFft::process_lanes`).
+        // With SIMD lanes (host) the chirp's RX channels are transformed and stored side by
+        // side; on a Cortex-M (no SIMD; a lanes buffer would add RX × N × 8 bytes of stack)
+        // one after the other. Both give bit-identical cubes (`RangeFft::process_lanes`,
+        // `Cube::store_lanes`).
         #[cfg(not(target_arch = "arm"))]
-        let lanes = {
+        {
             let mut lanes = [Lanes::<RX>::ZERO; N];
             self.range.process_lanes(chirp, &mut lanes);
-            lanes
-        };
-        for (l, (samples, &row)) in chirp.iter().zip(rows.iter()).enumerate() {
-            let row = usize::from(row);
-            #[cfg(not(target_arch = "arm"))]
-            {
-                let _ = samples;
-                for (s, v) in spectrum.iter_mut().zip(lanes.iter()) {
-                    *s = v.lane(l);
+            if let Some(c) = coupling {
+                for (l, &row) in rows.iter().enumerate() {
+                    let Some(c) = c.get(usize::from(row)) else {
+                        continue;
+                    };
+                    for (s, c) in lanes.iter_mut().zip(c.iter()) {
+                        s.re[l] -= c.re;
+                        s.im[l] -= c.im;
+                    }
                 }
             }
-            #[cfg(target_arch = "arm")]
-            {
-                let _ = l;
+            cube.store_lanes(rows, k, &lanes);
+        }
+        #[cfg(target_arch = "arm")]
+        {
+            let mut spectrum = [ZERO; N];
+            for (samples, &row) in chirp.iter().zip(rows.iter()) {
+                let row = usize::from(row);
                 self.range.process(samples, &mut spectrum);
-            }
-            if let Some(c) = coupling.and_then(|c| c.get(row)) {
-                for (s, c) in spectrum.iter_mut().zip(c.iter()) {
-                    *s -= *c;
+                if let Some(c) = coupling.and_then(|c| c.get(row)) {
+                    for (s, c) in spectrum.iter_mut().zip(c.iter()) {
+                        *s -= *c;
+                    }
                 }
+                cube.store(row, k, &spectrum);
             }
-            cube.store(row, k, &spectrum);
         }
         Ok(())
     }
