@@ -44,6 +44,10 @@ use crate::window::WindowKind;
 const ZERO: Complex32 = Complex32::new(0.0, 0.0);
 const ONE: Complex32 = Complex32::new(1.0, 0.0);
 
+/// Azimuths whose map powers a host evaluates side by side ([`LineSpectrum::powers_at`]).
+#[cfg(not(target_arch = "arm"))]
+const LANES: usize = 16;
+
 /// Processing parameters of the DBE chain (defaults of spec §3).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Params {
@@ -511,7 +515,21 @@ impl<
                     *floor = delta / n as f32;
                     // The azimuth line is uniform and in position order (`ArrayLayout`).
                     let line = LineSpectrum::leading(&capon, n);
-                    for (p, steer) in ra.iter_mut().zip(self.az_steer.iter()) {
+                    // On a host four azimuths at a time in SIMD lanes (bit-identical); on a
+                    // Cortex-M (no vector registers) one at a time.
+                    #[cfg(not(target_arch = "arm"))]
+                    let (ra, steers) = {
+                        let mut ra = ra.chunks_exact_mut(LANES);
+                        let mut steers = self.az_steer.chunks_exact(LANES);
+                        for (p, s) in (&mut ra).zip(&mut steers) {
+                            let z: [Complex32; LANES] = core::array::from_fn(|l| line_phase(&s[l]));
+                            p.copy_from_slice(&line.powers_at(&z));
+                        }
+                        (ra.into_remainder(), steers.remainder())
+                    };
+                    #[cfg(target_arch = "arm")]
+                    let steers = &self.az_steer;
+                    for (p, steer) in ra.iter_mut().zip(steers.iter()) {
                         *p = line.power_at(line_phase(steer));
                     }
                 }
