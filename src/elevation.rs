@@ -291,6 +291,29 @@ mod tests {
 
     use crate::covariance::Matrix;
 
+    /// A flat spectrum (`c = 0`), a non-finite one and a zero `κΔ` still give a `ν` inside
+    /// the interval asked for, and powers that are finite and never negative.
+    #[test]
+    fn degenerate_two_level_spectra_stay_in_their_interval() {
+        let flat = TwoLevel {
+            sum: 2.0,
+            cross: Complex32::new(0.0, 0.0),
+        };
+        let broken = TwoLevel {
+            sum: f32::NAN,
+            cross: Complex32::new(f32::NAN, f32::INFINITY),
+        };
+        let one = Complex32::new(1.0, 0.0);
+        assert_eq!(flat.power_at(one), 0.5);
+        assert_eq!(broken.power_at(one), 0.0);
+        for line in [flat, broken] {
+            for kd in [KAPPA, 0.0, f32::NAN] {
+                let nu = line.peak_nu(kd, 0.1, 0.09, 0.11);
+                assert!((0.09..=0.11).contains(&nu), "{line:?} κΔ {kd}: ν {nu}");
+            }
+        }
+    }
+
     /// The closed form equals the quadratic form `1/aᴴR⁻¹a` of every elevation on the full
     /// array and on the coherent path's sub-array (a restriction of the rows), within the
     /// cancellation bound `M/γ·ε` of [`TwoLevel`]; its peak is the sweep's maximum.
