@@ -409,6 +409,11 @@ typedef struct {
    * paper's chain; `dbe_radar::joint`).
    */
   uint8_t joint_elevation;
+  /**
+   * Coherent split: a coherent pair merged into one detection is resolved as two (on by
+   * default, off in the paper's chain; `dbe_radar::split`).
+   */
+  uint8_t coherent_split;
 } dbe_params_t;
 
 /**

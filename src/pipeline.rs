@@ -8,7 +8,8 @@
 //! Dbe::detect_targets  : OS-CFAR on RA, row floor δ_b/AZ ──▶ detections (b, i) (cfar.rs)
 //!   (Chain::detect)
 //! Dbe::resolve         : per run of detections in one range bin, the full M×M R_b once:
-//!   (Chain::points)      beam_doppler of every detection; equal Dopplers ──▶ coherent
+//!   (Chain::points)      beam_doppler of every detection; equal Dopplers ──▶ coherent;
+//!                        a lone detection that is a merged coherent pair ──▶ two (split.rs)
 //!                        per detection: compensate_tdm: rotate R_b by its Doppler,
 //!                          climb to the compensated azimuth peak            (tdm.rs)
 //!                        elevation::sweep on R_b (no FB), or coherent: on the
@@ -37,6 +38,7 @@ use crate::frontend::Frontend;
 use crate::joint::{self, Source, MAX_SOURCES, NEIGHBOUR_BINS, SWEEPS};
 use crate::points::{power_db, ratio_db, Point, PointCloud};
 use crate::refine::parabolic_offset;
+use crate::split::split_line;
 use crate::subarray::{smooth_line, SubArray};
 use crate::tdm;
 use crate::window::WindowKind;
@@ -143,6 +145,17 @@ pub struct Params {
     /// odometry drift falls on two simulated sequences and rises on two (XYZ hallways,
     /// outdoors, aspen, army 0.46/2.99/0.23/0.35 → 0.40/2.53/0.35/0.43 %).
     pub joint_elevation: bool,
+    /// Coherent split (see [`crate::split`]): a detection with no coherent partner whose
+    /// TDM-compensated line covariance is a coherent pair merged into one map peak (nearly
+    /// rank 1, two undamped exponentials fit its principal eigenvector far better than one)
+    /// is resolved as two coherent detections at the fitted azimuths. On by default: in
+    /// `dbe eval`'s defaults sweep it resolves coherent pairs at 20 dB 8° apart in 99 % of
+    /// trials instead of 81 % (6°: 93 % instead of 68 %), raises the extended scenes' points
+    /// per frame from 21.9 to 23.1 and lowers their Chamfer distance by 1.6 % at 0.86 instead
+    /// of 0.84 false points per scene frame and none on noise-only frames; the TI capture
+    /// keeps its three static points. Off in the paper's chain, and whenever the coherent
+    /// path is (`coherent_doppler_bins` 0), whose sub-array resolves the split detections.
+    pub coherent_split: bool,
     /// Azimuth grid: first and last angle, degrees (the grid size is a const generic).
     pub azimuth_span_deg: (f32, f32),
     /// Elevation grid: first and last angle, degrees.
@@ -182,6 +195,7 @@ impl Params {
             doppler_test_db: 12.0,
             doppler_agreement_bins: 1.5,
             joint_elevation: false,
+            coherent_split: true,
             azimuth_span_deg: (-70.0, 70.0),
             elevation_span_deg: (-25.0, 25.0),
             cfar: CfarParams::RANGE_AZIMUTH,
@@ -190,9 +204,9 @@ impl Params {
     }
 
     /// The paper's chain as it describes it: [`Self::defaults`] without the additions of this
-    /// crate that change its points (TDM-MIMO compensation, the coherent-target sub-array, the
-    /// Doppler test and agreement, spatial smoothing, sub-grid refinement, the CFAR window
-    /// gate). The CFAR threshold stays the default's: the paper gives none.
+    /// crate that change its points (TDM-MIMO compensation, the coherent-target sub-array and
+    /// split, the Doppler test and agreement, spatial smoothing, sub-grid refinement, the CFAR
+    /// window gate). The CFAR threshold stays the default's: the paper gives none.
     pub const fn paper(samples: usize) -> Self {
         let mut p = Self::defaults(samples);
         p.tdm_compensation = false;
@@ -202,6 +216,7 @@ impl Params {
         p.spatial_smoothing = false;
         p.subgrid = false;
         p.joint_elevation = false;
+        p.coherent_split = false;
         p.cfar.window_gate_db = 0.0;
         p
     }
@@ -224,6 +239,7 @@ impl Params {
             doppler_test_db: 0.0,
             doppler_agreement_bins: 0.0,
             joint_elevation: false,
+            coherent_split: false,
             azimuth_span_deg: (0.0, 0.0),
             elevation_span_deg: (0.0, 0.0),
             cfar: CfarParams::ZEROED,
@@ -623,7 +639,23 @@ impl<
                 }
                 let before = out.stats.points + out.stats.point_overflow;
                 let coherent = self.coherent(dopplers, n);
-                self.resolve_detection(det, dopplers[n], coherent, block, &cov, ra, out);
+                // One detection, or the two of a split merged pair (one call site: the
+                // resolution's stack frame exists once).
+                let mut targets = [(*det, coherent, None), (*det, true, None)];
+                let count = match self.split(&cov, dopplers[n], coherent) {
+                    Some(mus) => {
+                        for (t, mu) in targets.iter_mut().zip(mus) {
+                            let column = self.nearest_azimuth_bin(mu);
+                            *t = (Detection { column, ..*det }, true, Some(mu));
+                        }
+                        2
+                    }
+                    None => 1,
+                };
+                for (d, coherent, at_mu) in &targets[..count] {
+                    let doppler = dopplers[n];
+                    self.resolve_detection(d, doppler, *coherent, *at_mu, block, &cov, ra, out);
+                }
                 if out.stats.points + out.stats.point_overflow == before {
                     out.stats.detections_without_point += 1;
                 }
@@ -728,6 +760,31 @@ impl<
             p.position = q.position;
             p.elevation_bin = s.bin as u16;
         }
+    }
+
+    /// The two azimuths (direction cosines) of a coherent pair merged into one detection
+    /// whose beam Doppler is `d`, on the line block of the bin's covariance `cov` rotated by
+    /// `d` ([`crate::split`]); `None` when off, already coherent, or not a pair.
+    fn split(&self, cov: &Matrix<M>, d: f32, coherent: bool) -> Option<[f32; 2]> {
+        // The split's detections take the coherent path: off with it.
+        let on = self.params.coherent_split && self.params.coherent_doppler_bins > 0.0;
+        if !on || coherent || !d.is_finite() || self.sub.is_empty() {
+            return None;
+        }
+        let mut r = *cov;
+        if self.params.tdm_compensation {
+            rotate_rows(&mut r, &tdm::rotation::<K, TX, M>(&self.layout.slot, d));
+        }
+        split_line(&leading_block::<M, AZ>(&r), self.line_phase_per_mu)
+    }
+
+    /// The azimuth bin nearest to direction cosine `mu` (clamped to the grid).
+    fn nearest_azimuth_bin(&self, mu: f32) -> u16 {
+        let (a0, a1) = self.params.azimuth_span_deg;
+        let step = (a1 - a0) / (NAZ - 1) as f32;
+        let deg = libm::asinf(mu.clamp(-1.0, 1.0)).to_degrees();
+        // `as` saturates (NaN → 0); the clamp keeps the index on the grid.
+        (libm::roundf((deg - a0) / step).max(0.0) as usize).min(NAZ - 1) as u16
     }
 
     /// Whether detection `n` of a range bin's run shares its beam Doppler with another
@@ -843,13 +900,15 @@ impl<
 
     /// Elevation, Doppler and points of one detection whose azimuth beam has Doppler
     /// `beam_doppler` (bins), on the full array or, when `coherent`, on the FB-averaged
-    /// centro-symmetric sub-array.
+    /// centro-symmetric sub-array; `at_mu`: the azimuth of a split detection
+    /// ([`Params::coherent_split`]), kept as it is (no climb, no sub-grid refinement).
     #[allow(clippy::too_many_arguments)] // one call site; the stages' inputs, spelled out
     fn resolve_detection<const P: usize>(
         &self,
         det: &Detection,
         beam_doppler: f32,
         coherent: bool,
+        at_mu: Option<f32>,
         snap: &Snapshots<K, M>,
         cov: &Matrix<M>,
         ra: &[[f32; NAZ]; N],
@@ -879,8 +938,13 @@ impl<
                 return;
             }
             let c = self.compensate_tdm(&mut r, beam_doppler, i);
-            (rot, i) = (c.rotation, c.azimuth_bin);
-            az_frac = c.azimuth_frac.unwrap_or(az_frac);
+            rot = c.rotation;
+            // A split detection keeps its fitted azimuth: the compensated spectrum's climb
+            // would lead it back to the merged peak.
+            if at_mu.is_none() {
+                i = c.azimuth_bin;
+                az_frac = c.azimuth_frac.unwrap_or(az_frac);
+            }
             c.line
         } else if self.params.subgrid {
             self.azimuth_capon(&leading_block(&r))
@@ -940,7 +1004,7 @@ impl<
         let subgrid = self.params.subgrid;
         let (mu, range) = if subgrid {
             (
-                self.refined_mu(line.as_ref(), i, az_frac),
+                at_mu.unwrap_or_else(|| self.refined_mu(line.as_ref(), i, az_frac)),
                 (b as f32 + range_frac) * self.range_bin_m,
             )
         } else {

@@ -367,7 +367,9 @@ fn the_papers_chain_is_the_defaults_without_the_additions() {
         doppler_test_db: d.doppler_test_db,
         doppler_agreement_bins: d.doppler_agreement_bins,
         subgrid: d.subgrid,
+        coherent_split: d.coherent_split,
         ..paper
     };
+    assert!(!paper.coherent_split && d.coherent_split);
     assert_eq!(restored, d);
 }

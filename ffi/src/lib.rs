@@ -262,6 +262,9 @@ pub struct dbe_params_t {
     /// Joint elevation fit of the points of each range bin (off by default and in the
     /// paper's chain; `dbe_radar::joint`).
     pub joint_elevation: u8,
+    /// Coherent split: a coherent pair merged into one detection is resolved as two (on by
+    /// default, off in the paper's chain; `dbe_radar::split`).
+    pub coherent_split: u8,
 }
 
 /// Everything `dbe_init` configures.
@@ -668,6 +671,7 @@ fn params_c(p: &Params) -> dbe_params_t {
         doppler_agreement_bins: p.doppler_agreement_bins,
         cfar_window_gate_db: p.cfar.window_gate_db,
         joint_elevation: u8::from(p.joint_elevation),
+        coherent_split: u8::from(p.coherent_split),
     }
 }
 
@@ -709,6 +713,7 @@ fn params_core(
     p.doppler_agreement_bins = c.doppler_agreement_bins;
     p.cfar.window_gate_db = c.cfar_window_gate_db;
     p.joint_elevation = c.joint_elevation != 0;
+    p.coherent_split = c.coherent_split != 0;
     Ok(p)
 }
 

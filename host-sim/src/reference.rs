@@ -1246,21 +1246,47 @@ pub fn process_frame_with(
             let (Some(Some(r)), Some(x)) = (covariances.get(bin), cube.get(bin)) else {
                 continue;
             };
-            let beam = Beam {
-                doppler: bins[n],
-                coherent,
+            let split_on = params.coherent_split && params.coherent_doppler_bins > 0.0;
+            let split = match (split_on, coherent, bins[n]) {
+                (true, false, Some(d)) if setup.array.rectangle.is_some() => {
+                    split_line(&setup, params, r, d, &mut margins[n])
+                }
+                _ => None,
             };
-            resolve(
-                &setup,
-                params,
-                &det,
-                beam,
-                x,
-                r,
-                &ra_map,
-                &mut margins[n],
-                &mut points,
-            );
+            let targets: Vec<(RefDetection, bool, Option<f64>)> = match split {
+                Some(mus) => mus
+                    .iter()
+                    .map(|&mu| {
+                        let deg = mu.clamp(-1.0, 1.0).asin().to_degrees();
+                        let column =
+                            nearest_grid_bin(params.azimuth_span_deg, setup.az_mu.len(), deg);
+                        let d = RefDetection {
+                            azimuth_bin: column,
+                            ..det
+                        };
+                        (d, true, Some(mu))
+                    })
+                    .collect(),
+                None => vec![(det, coherent, None)],
+            };
+            for (det, coherent, at_mu) in targets {
+                let beam = Beam {
+                    doppler: bins[n],
+                    coherent,
+                    at_mu,
+                };
+                resolve(
+                    &setup,
+                    params,
+                    &det,
+                    beam,
+                    x,
+                    r,
+                    &ra_map,
+                    &mut margins[n],
+                    &mut points,
+                );
+            }
         }
         start = end;
     }
@@ -1519,6 +1545,106 @@ struct Beam {
     doppler: Option<f64>,
     /// Resolved on the coherent-target rectangle.
     coherent: bool,
+    /// The fitted azimuth of a split detection (`Params::coherent_split`): no climb, and the
+    /// point's μ with sub-grid refinement.
+    at_mu: Option<f64>,
+}
+
+/// Beyond the spec, `Params::coherent_split` (core module [`dbe_radar::split`]): the line
+/// block of the bin's covariance rotated by the beam Doppler `d` (under TDM compensation);
+/// its eigen decomposition; when `λ₂/λ₁` is below the core's ratio, forward–backward linear
+/// prediction of order 2 on the principal eigenvector (least squares by SVD here), the
+/// roots `z₁, z₂`, amplitudes by least squares, and the split's acceptance rules; the
+/// direction cosines `μ = −arg z / (κ·Δaz)`.
+fn split_line(
+    setup: &Setup,
+    params: &Params,
+    r: &DMatrix<Complex64>,
+    d: f64,
+    margin: &mut Margin,
+) -> Option<[f64; 2]> {
+    use dbe_radar::split::{AMPLITUDE_RATIO, RANK_RATIO, RESIDUAL_RATIO, ROOT_TOLERANCE};
+    let line = setup.array.line;
+    let elements = &setup.array.elements;
+    if line < 4 {
+        return None;
+    }
+    let k = setup.kappa * (elements[1].az - elements[0].az);
+    let mut r = r.clone();
+    if params.tdm_compensation {
+        let v = d * setup.doppler_bin_mps;
+        let rotation = DVector::from_iterator(
+            elements.len(),
+            elements
+                .iter()
+                .map(|e| Complex64::from_polar(1.0, -setup.slot_phase_per_mps * v * e.slot as f64)),
+        );
+        let dm = DMatrix::from_diagonal(&rotation);
+        r = &dm * r * dm.adjoint();
+    }
+    let block = r.view((0, 0), (line, line)).into_owned();
+    let eigen = nalgebra::SymmetricEigen::new(block);
+    let mut order: Vec<usize> = (0..line).collect();
+    order.sort_by(|&a, &b| eigen.eigenvalues[b].total_cmp(&eigen.eigenvalues[a]));
+    let (l1, l2) = (eigen.eigenvalues[order[0]], eigen.eigenvalues[order[1]]);
+    margin.note(l2, f64::from(RANK_RATIO) * l1);
+    if !(l1 > 0.0 && l2 < f64::from(RANK_RATIO) * l1) {
+        return None;
+    }
+    let v: Vec<Complex64> = eigen
+        .eigenvectors
+        .column(order[0])
+        .iter()
+        .copied()
+        .collect();
+    // v[m+2] = a·v[m+1] + b·v[m], forwards and on the reversed conjugate.
+    let back: Vec<Complex64> = v.iter().rev().map(|x| x.conj()).collect();
+    let rows = 2 * (line - 2);
+    let mut a_mat = DMatrix::<Complex64>::zeros(rows, 2);
+    let mut rhs = DVector::<Complex64>::zeros(rows);
+    for (block, x) in [&v, &back].iter().enumerate() {
+        for m in 0..line - 2 {
+            let row = block * (line - 2) + m;
+            a_mat[(row, 0)] = x[m + 1];
+            a_mat[(row, 1)] = x[m];
+            rhs[row] = x[m + 2];
+        }
+    }
+    let c = a_mat.svd(true, true).solve(&rhs, 1e-12).ok()?;
+    let disc = (c[0] * c[0] + c[1] * 4.0).sqrt();
+    let z = [(c[0] + disc) / 2.0, (c[0] - disc) / 2.0];
+    for zi in &z {
+        margin.note((zi.norm() - 1.0).abs(), f64::from(ROOT_TOLERANCE));
+    }
+    if z.iter()
+        .any(|zi| !((zi.norm() - 1.0).abs() <= f64::from(ROOT_TOLERANCE)))
+    {
+        return None;
+    }
+    let e = DMatrix::from_fn(line, 2, |m, i| z[i].powi(m as i32));
+    let vv = DVector::from_column_slice(&v);
+    let amp = e.clone().svd(true, true).solve(&vv, 1e-12).ok()?;
+    let two = (&vv - &e * &amp).norm_squared();
+    let step: Complex64 = (1..line).map(|m| v[m] * v[m - 1].conj()).sum();
+    if !(step.norm() > 0.0) {
+        return None;
+    }
+    let z1 = step / step.norm();
+    let p1 = DVector::from_fn(line, |m, _| z1.powi(m as i32));
+    let c1 = p1.dotc(&vv) / line as f64;
+    let one = (&vv - &p1 * c1).norm_squared();
+    let (ca, cb) = (amp[0].norm(), amp[1].norm());
+    margin.note(two, f64::from(RESIDUAL_RATIO) * one);
+    margin.note(ca.min(cb), f64::from(AMPLITUDE_RATIO) * ca.max(cb));
+    if !(two < f64::from(RESIDUAL_RATIO) * one
+        && ca.min(cb) >= f64::from(AMPLITUDE_RATIO) * ca.max(cb))
+    {
+        return None;
+    }
+    let mu = z.map(|zi| -zi.arg() / k);
+    mu.iter()
+        .all(|m| m.is_finite() && m.abs() < 1.0)
+        .then_some(mu)
 }
 
 /// TDM compensation, elevation sweep and Doppler of one detection; pushes its points.
@@ -1565,8 +1691,13 @@ fn resolve(
             return;
         };
         let c = compensate(setup, params, &r, d, i, margin);
-        (rot, r, i) = (c.rotation, c.covariance, c.azimuth_bin);
-        az_frac = c.azimuth_frac.unwrap_or(az_frac);
+        (rot, r) = (c.rotation, c.covariance);
+        // A split detection keeps its fitted azimuth (the climb would lead it back to the
+        // merged peak).
+        if beam.at_mu.is_none() {
+            i = c.azimuth_bin;
+            az_frac = c.azimuth_frac.unwrap_or(az_frac);
+        }
     }
 
     // Stage 3: elevation sweep on the full array, no forward–backward averaging; coherent
@@ -1609,6 +1740,7 @@ fn resolve(
         let span = params.azimuth_span_deg;
         let start = grid_sine(span, naz, i as f64 + az_frac);
         let mu = match setup.azimuth_capon(&r, params) {
+            _ if beam.at_mu.is_some() => beam.at_mu.unwrap_or(start),
             Some((az, _, rows)) if rows > 1 => {
                 let (lo, hi) = (
                     grid_sine(span, naz, i as f64 - 0.5),

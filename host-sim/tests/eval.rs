@@ -303,7 +303,7 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
             assert_eq!(r.trials, e.config.trials_per_snr);
         }
     }
-    assert!(!e.defaults.is_empty() && e.recommendations.len() == 9);
+    assert!(!e.defaults.is_empty() && e.recommendations.len() == 10);
     // A report never overwrites an unrelated folder's summary half-way: writing twice works.
     write_report(e, dir.path())?;
     Ok(())

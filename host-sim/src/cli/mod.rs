@@ -44,9 +44,15 @@ pub struct ParamArgs {
     pub subgrid: bool,
     /// Resolve every detection on the full array, also coherent ones (two targets of one range
     /// bin with one Doppler), as the paper's chain does; by default those use the
-    /// forward–backward averaged 2 × 4 sub-array and get their own elevations.
+    /// forward–backward averaged 2 × 4 sub-array and get their own elevations. Implies
+    /// --no-coherent-split.
     #[arg(long)]
     pub no_coherent: bool,
+    /// Turn the coherent split off: by default a coherent pair merged into one detection of
+    /// the range–azimuth map (nearly rank-1 azimuth covariance that two exponentials fit far
+    /// better than one) is resolved as two detections (`Params::coherent_split`).
+    #[arg(long)]
+    pub no_coherent_split: bool,
     /// Spatially smooth the azimuth covariance over two 7-element sub-lines: coherent pairs
     /// 12° or more apart are always resolved, at the cost of one element of azimuth aperture.
     #[arg(long)]
@@ -57,9 +63,9 @@ pub struct ParamArgs {
     /// Capon sweep pulls them together; off by default (`Params::joint_elevation`).
     #[arg(long)]
     pub joint_elevation: bool,
-    /// The paper's chain: no TDM-MIMO compensation, no coherent sub-array, no Doppler test, no
-    /// Doppler agreement, no CFAR window gate, points on the grid (the other options still
-    /// apply on top).
+    /// The paper's chain: no TDM-MIMO compensation, no coherent sub-array or split, no Doppler
+    /// test, no Doppler agreement, no CFAR window gate, points on the grid (the other options
+    /// still apply on top).
     #[arg(long)]
     pub paper: bool,
     /// Turn the Doppler test off: by default a detection whose azimuth Capon beam (after TDM
@@ -95,6 +101,10 @@ impl ParamArgs {
         }
         if self.no_coherent {
             p.coherent_doppler_bins = 0.0;
+            p.coherent_split = false;
+        }
+        if self.no_coherent_split {
+            p.coherent_split = false;
         }
         p.spatial_smoothing = self.spatial_smoothing;
         p.joint_elevation = self.joint_elevation;

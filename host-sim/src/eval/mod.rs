@@ -259,6 +259,8 @@ pub enum SweepValue {
     WindowGate(f32),
     /// The joint elevation fit of each range bin's points (`Params::joint_elevation`).
     JointElevation(bool),
+    /// The coherent split of merged coherent pairs (`Params::coherent_split`).
+    CoherentSplit(bool),
 }
 
 impl SweepValue {
@@ -274,6 +276,7 @@ impl SweepValue {
             SweepValue::DopplerAgreement(_) => "Doppler agreement (bins)",
             SweepValue::WindowGate(_) => "CFAR window gate (dB)",
             SweepValue::JointElevation(_) => "joint elevation fit",
+            SweepValue::CoherentSplit(_) => "coherent split",
         }
     }
 
@@ -288,7 +291,9 @@ impl SweepValue {
             SweepValue::Coherent(c) => format!("{c}"),
             SweepValue::DopplerAgreement(g) => format!("{g}"),
             SweepValue::WindowGate(g) => format!("{g}"),
-            SweepValue::JointElevation(on) => String::from(if *on { "on" } else { "off" }),
+            SweepValue::JointElevation(on) | SweepValue::CoherentSplit(on) => {
+                String::from(if *on { "on" } else { "off" })
+            }
         }
     }
 
@@ -309,6 +314,7 @@ impl SweepValue {
             SweepValue::DopplerAgreement(g) => params.doppler_agreement_bins = g,
             SweepValue::WindowGate(g) => params.cfar.window_gate_db = g,
             SweepValue::JointElevation(on) => params.joint_elevation = on,
+            SweepValue::CoherentSplit(on) => params.coherent_split = on,
         }
         params
     }
@@ -350,6 +356,9 @@ pub fn defaults_sweep() -> Vec<SweepValue> {
     }
     for on in [false, true] {
         v.push(SweepValue::JointElevation(on));
+    }
+    for on in [false, true] {
+        v.push(SweepValue::CoherentSplit(on));
     }
     v
 }
