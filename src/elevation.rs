@@ -236,8 +236,8 @@ pub fn phase_difference<const M: usize>(
     Some(libm::atan2f(z.im, z.re) / kappa_del)
 }
 
-/// The nearest bin of an `NEL`-bin elevation grid (linear in θ over `span` degrees, as the
-/// DBE chain's), clamped to its ends.
+/// The nearest bin of an `NEL`-bin angle grid (linear in the angle over `span` degrees, as
+/// the DBE chain's elevation and azimuth grids) to direction cosine `nu`, clamped to its ends.
 pub fn nearest_bin<const NEL: usize>(nu: f32, span: (f32, f32)) -> u16 {
     let (e0, e1) = span;
     let theta = libm::asinf(nu.clamp(-1.0, 1.0)).to_degrees();

@@ -645,7 +645,8 @@ impl<
                 let count = match self.split(&cov, dopplers[n], coherent) {
                     Some(mus) => {
                         for (t, mu) in targets.iter_mut().zip(mus) {
-                            let column = self.nearest_azimuth_bin(mu);
+                            let span = self.params.azimuth_span_deg;
+                            let column = elevation::nearest_bin::<NAZ>(mu, span);
                             *t = (Detection { column, ..*det }, true, Some(mu));
                         }
                         2
@@ -771,20 +772,13 @@ impl<
         if !on || coherent || !d.is_finite() || self.sub.is_empty() {
             return None;
         }
-        let mut r = *cov;
+        // Only the line block is read: rotate that alone.
+        let mut line = leading_block::<M, AZ>(cov);
         if self.params.tdm_compensation {
-            rotate_rows(&mut r, &tdm::rotation::<K, TX, M>(&self.layout.slot, d));
+            let rotation = tdm::rotation::<K, TX, M>(&self.layout.slot, d);
+            rotate_rows(&mut line, &azimuth_part::<M, AZ>(&rotation));
         }
-        split_line(&leading_block::<M, AZ>(&r), self.line_phase_per_mu)
-    }
-
-    /// The azimuth bin nearest to direction cosine `mu` (clamped to the grid).
-    fn nearest_azimuth_bin(&self, mu: f32) -> u16 {
-        let (a0, a1) = self.params.azimuth_span_deg;
-        let step = (a1 - a0) / (NAZ - 1) as f32;
-        let deg = libm::asinf(mu.clamp(-1.0, 1.0)).to_degrees();
-        // `as` saturates (NaN → 0); the clamp keeps the index on the grid.
-        (libm::roundf((deg - a0) / step).max(0.0) as usize).min(NAZ - 1) as u16
+        split_line(&line, self.line_phase_per_mu)
     }
 
     /// Whether detection `n` of a range bin's run shares its beam Doppler with another

@@ -1434,6 +1434,21 @@ struct Compensation {
     azimuth_frac: Option<f64>,
 }
 
+/// The rotation `exp(−j·4π·v·slot_m·Tc/λ)` of every row for a Doppler of `d` bins, and
+/// `D·r·Dᴴ`: slot t fires t·Tc after the loop start, so its Doppler phase is 4π·v·t·Tc/λ ahead.
+fn rotate(setup: &Setup, r: &DMatrix<Complex64>, d: f64) -> (Vec<Complex64>, DMatrix<Complex64>) {
+    let v = d * setup.doppler_bin_mps;
+    let rotation: Vec<Complex64> = setup
+        .array
+        .elements
+        .iter()
+        .map(|e| Complex64::from_polar(1.0, -setup.slot_phase_per_mps * v * e.slot as f64))
+        .collect();
+    let dm = DMatrix::from_diagonal(&DVector::from_column_slice(&rotation));
+    let covariance = &dm * r * dm.adjoint();
+    (rotation, covariance)
+}
+
 /// Rotate every row by its slot's Doppler phase and climb the compensated azimuth spectrum
 /// uphill from bin `i`, at most `tdm_azimuth_search` bins (left when `left > here` and
 /// `left ≥ right`, else right when `right > here`).
@@ -1446,16 +1461,7 @@ fn compensate(
     margin: &mut Margin,
 ) -> Compensation {
     let naz = setup.az_mu.len();
-    let v = d * setup.doppler_bin_mps;
-    // Slot t fires t·Tc after the loop start: its Doppler phase is 4π·v·t·Tc/λ ahead.
-    let rotation: Vec<Complex64> = setup
-        .array
-        .elements
-        .iter()
-        .map(|e| Complex64::from_polar(1.0, -setup.slot_phase_per_mps * v * e.slot as f64))
-        .collect();
-    let dm = DMatrix::from_diagonal(&DVector::from_column_slice(&rotation));
-    let covariance = &dm * r * dm.adjoint();
+    let (rotation, covariance) = rotate(setup, r, d);
     let mut azimuth_frac = None;
     if let Some((az, _, rows)) = setup.azimuth_capon(&covariance, params) {
         let power = |i: usize| az.power(&setup.steering(rows, setup.az_mu[i], 0.0));
@@ -1570,18 +1576,10 @@ fn split_line(
         return None;
     }
     let k = setup.kappa * (elements[1].az - elements[0].az);
-    let mut r = r.clone();
-    if params.tdm_compensation {
-        let v = d * setup.doppler_bin_mps;
-        let rotation = DVector::from_iterator(
-            elements.len(),
-            elements
-                .iter()
-                .map(|e| Complex64::from_polar(1.0, -setup.slot_phase_per_mps * v * e.slot as f64)),
-        );
-        let dm = DMatrix::from_diagonal(&rotation);
-        r = &dm * r * dm.adjoint();
-    }
+    let r = match params.tdm_compensation {
+        true => rotate(setup, r, d).1,
+        false => r.clone(),
+    };
     let block = r.view((0, 0), (line, line)).into_owned();
     let eigen = nalgebra::SymmetricEigen::new(block);
     let mut order: Vec<usize> = (0..line).collect();
@@ -1739,8 +1737,8 @@ fn resolve(
     let (mu_point, range) = if params.subgrid {
         let span = params.azimuth_span_deg;
         let start = grid_sine(span, naz, i as f64 + az_frac);
-        let mu = match setup.azimuth_capon(&r, params) {
-            _ if beam.at_mu.is_some() => beam.at_mu.unwrap_or(start),
+        // A split detection keeps its fitted azimuth.
+        let line = || match setup.azimuth_capon(&r, params) {
             Some((az, _, rows)) if rows > 1 => {
                 let (lo, hi) = (
                     grid_sine(span, naz, i as f64 - 0.5),
@@ -1750,6 +1748,7 @@ fn resolve(
             }
             _ => start,
         };
+        let mu = beam.at_mu.unwrap_or_else(line);
         (mu, (b as f64 + range_frac) * setup.range_bin_m)
     } else {
         (mu, b as f64 * setup.range_bin_m)
