@@ -414,6 +414,12 @@ typedef struct {
    * default, off in the paper's chain; `dbe_radar::split`).
    */
   uint8_t coherent_split;
+  /**
+   * Ring split: a point at the horizon that the elevation row sees clearly weaker than the
+   * azimuth line (a vertical surface's range ring) becomes the two points above and below
+   * the radar (off by default and in the paper's chain; `dbe_radar::ring`).
+   */
+  uint8_t ring_split;
 } dbe_params_t;
 
 /**

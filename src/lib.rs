@@ -64,6 +64,7 @@ pub mod points;
 pub mod presets;
 pub mod range;
 pub mod refine;
+pub mod ring;
 pub mod split;
 pub mod subarray;
 pub mod tdm;

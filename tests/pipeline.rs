@@ -32,7 +32,7 @@
 
 mod common;
 
-use common::{dbe_for, id, storage, synth, Target};
+use common::{dbe_for, id, storage, synth_phased, Target};
 use dbe_radar::presets::coloradar as p;
 use dbe_radar::{AntennaGeometry, CfarParams, Chain, Params, Point, Waveform};
 
@@ -46,11 +46,22 @@ struct Run {
 }
 
 fn run(targets: &[Target], noise: f64, seed: u64, params: Params) -> Run {
+    run_phased(targets, None, noise, seed, params)
+}
+
+fn run_phased(
+    targets: &[Target],
+    phases: Option<&[f64]>,
+    noise: f64,
+    seed: u64,
+    params: Params,
+) -> Run {
     let (frontend, dbe) = dbe_for(Waveform::COLORADAR, AntennaGeometry::COLORADAR, params).unwrap();
-    let chirps = synth::<{ p::SAMPLES }, { p::LOOPS }, { p::TX }, { p::RX }>(
+    let chirps = synth_phased::<{ p::SAMPLES }, { p::LOOPS }, { p::TX }, { p::RX }>(
         &Waveform::COLORADAR,
         &AntennaGeometry::COLORADAR,
         targets,
+        phases,
         noise,
         seed,
     );
@@ -203,6 +214,53 @@ fn coherent_pair_in_one_range_bin_gets_azimuth_and_elevation() {
         worst * EL_STEP_DEG > 2.0,
         "full array: worst elevation error {worst} steps"
     );
+}
+
+/// A vertical surface's range ring (`Params::ring_split`, off by default): two equal returns
+/// at one range, azimuth and radial velocity, ±`el` about the horizon. In phase, the ring
+/// split gives a point within the elevation tolerance of each (its `|c|` is exactly
+/// `cos κΔδ`); without it the chain reports one point at the horizon. With it, a single
+/// target at any elevation is still one point.
+#[test]
+fn an_in_phase_ring_pair_is_split_into_its_two_heights() {
+    let (range, az, v) = (7.3, 35.0, 1.2);
+    let on = Params {
+        ring_split: true,
+        ..Params::defaults(p::SAMPLES)
+    };
+    for el in [9.0, 13.0] {
+        let ts = [
+            Target::polar(range, az, el, v, 40.0),
+            Target::polar(range, az, -el, v, 40.0),
+        ];
+        let phases = [0.4, 0.4];
+        let r = run_phased(&ts, Some(&phases), 20.0, 31, on);
+        assert_eq!(r.cloud.points().len(), 2, "±{el}°: {:?}", r.cloud.points());
+        for t in &ts {
+            let tol = tolerance(t);
+            let found = r.cloud.points().iter().any(|pt| {
+                let e = errors(&r, pt, t);
+                e.0 <= tol.0 && e.1 <= tol.1 && e.2 <= tol.2 && e.3 <= tol.3
+            });
+            assert!(
+                found,
+                "{t:?}: no point within {tol:?} in {:?}",
+                r.cloud.points()
+            );
+        }
+        let r = run_phased(&ts, Some(&phases), 20.0, 31, Params::defaults(p::SAMPLES));
+        let [pt] = r.cloud.points() else {
+            panic!("±{el}° without the split: {:?}", r.cloud.points());
+        };
+        let nu = f64::from(r.dbe.elevation_grid()[usize::from(pt.elevation_bin)]);
+        assert!(nu.asin().to_degrees().abs() <= 1.55 * EL_STEP_DEG, "{pt:?}");
+    }
+    for (seed, el) in [(32u64, -12.0), (33, 0.0), (34, 6.0), (35, 15.0)] {
+        let t = Target::polar(range, az, el, v, 40.0);
+        let r = run(&[t], 20.0, seed, on);
+        assert_eq!(r.cloud.points().len(), 1, "{el}°: {:?}", r.cloud.points());
+        assert_recovered(&r, &t);
+    }
 }
 
 #[test]
@@ -371,5 +429,6 @@ fn the_papers_chain_is_the_defaults_without_the_additions() {
         ..paper
     };
     assert!(!paper.coherent_split && d.coherent_split);
+    assert!(!paper.ring_split && !d.ring_split);
     assert_eq!(restored, d);
 }

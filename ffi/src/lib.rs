@@ -265,6 +265,10 @@ pub struct dbe_params_t {
     /// Coherent split: a coherent pair merged into one detection is resolved as two (on by
     /// default, off in the paper's chain; `dbe_radar::split`).
     pub coherent_split: u8,
+    /// Ring split: a point at the horizon that the elevation row sees clearly weaker than the
+    /// azimuth line (a vertical surface's range ring) becomes the two points above and below
+    /// the radar (off by default and in the paper's chain; `dbe_radar::ring`).
+    pub ring_split: u8,
 }
 
 /// Everything `dbe_init` configures.
@@ -672,6 +676,7 @@ fn params_c(p: &Params) -> dbe_params_t {
         cfar_window_gate_db: p.cfar.window_gate_db,
         joint_elevation: u8::from(p.joint_elevation),
         coherent_split: u8::from(p.coherent_split),
+        ring_split: u8::from(p.ring_split),
     }
 }
 
@@ -714,6 +719,7 @@ fn params_core(
     p.cfar.window_gate_db = c.cfar_window_gate_db;
     p.joint_elevation = c.joint_elevation != 0;
     p.coherent_split = c.coherent_split != 0;
+    p.ring_split = c.ring_split != 0;
     Ok(p)
 }
 

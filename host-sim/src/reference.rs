@@ -1798,19 +1798,101 @@ fn resolve(
         } else {
             f64::from(d)
         };
-        points.push(PointRecord {
-            x: range * cos2.sqrt(),
-            y: -range * mu_point,
-            z: range * nu_point,
-            doppler: doppler_bins * setup.doppler_bin_mps,
-            intensity_db: 10.0 * power.max(f64::MIN_POSITIVE).log10(),
-            snr_db,
-            range_bin: det.range_bin as u32,
-            azimuth_bin: i as u32,
-            elevation_bin: j as u32,
-            doppler_bin: d,
-        });
+        // One point, or the two of a vertical surface's range ring.
+        let half = match params.ring_split && !line_only && !beam.coherent {
+            true => ring_half(setup, x, &rot, f64::from(d) + d_frac, mu_point, margin),
+            false => None,
+        };
+        let nus = match half {
+            Some(h) => vec![nu_point - h, nu_point + h],
+            None => vec![nu_point],
+        };
+        for nu_point in nus {
+            let cos2 = 1.0 - mu_point * mu_point - nu_point * nu_point;
+            margin.note(mu_point * mu_point + nu_point * nu_point, 1.0);
+            if cos2 <= 0.0 {
+                continue;
+            }
+            let elevation_bin = match half {
+                Some(_) => nearest_grid_bin(
+                    params.elevation_span_deg,
+                    nel,
+                    nu_point.clamp(-1.0, 1.0).asin().to_degrees(),
+                ),
+                None => j,
+            };
+            points.push(PointRecord {
+                x: range * cos2.sqrt(),
+                y: -range * mu_point,
+                z: range * nu_point,
+                doppler: doppler_bins * setup.doppler_bin_mps,
+                intensity_db: 10.0 * power.max(f64::MIN_POSITIVE).log10(),
+                snr_db,
+                range_bin: det.range_bin as u32,
+                azimuth_bin: i as u32,
+                elevation_bin: elevation_bin as u32,
+                doppler_bin: d,
+            });
+        }
     }
+}
+
+/// Beyond the spec, `Params::ring_split` (core module [`dbe_radar::ring`]): every antenna's
+/// slow time, rotated by the TDM compensation `rot`, windowed and transformed at the point's
+/// fractional Doppler `doppler` (bins), de-steered to its azimuth `mu`; `c` = the elevation
+/// row's mean over the line's; a ring pair when `|c| ≤ ring::MAX_RATIO`,
+/// `1 − |c| ≥ ring::SIGMAS·σ_c` and `|arg c| ≤ ring::HORIZON_PHASE`, with half-separation
+/// `acos|c| / (κ·Δ)` in `ν`. Notes the margin of each of the three tests.
+fn ring_half(
+    setup: &Setup,
+    x: &DMatrix<Complex64>,
+    rot: &[Complex64],
+    doppler: f64,
+    mu: f64,
+    margin: &mut Margin,
+) -> Option<f64> {
+    use dbe_radar::ring::{HORIZON_PHASE, MAX_RATIO, SIGMAS};
+    let (line, m, k) = (setup.array.line, setup.array.len(), setup.k);
+    if line < 2 || m < line + 2 {
+        return None;
+    }
+    let t: Vec<Complex64> = (0..m)
+        .map(|row| {
+            let z: Complex64 = (0..k)
+                .map(|n| {
+                    let ph = -2.0 * PI * doppler * n as f64 / k as f64;
+                    x[(row, n)] * setup.doppler_window[n] * Complex64::from_polar(1.0, ph)
+                })
+                .sum();
+            let e = &setup.array.elements[row];
+            z * rot[row] * Complex64::from_polar(1.0, setup.kappa * mu * e.az)
+        })
+        .collect();
+    let (l, r) = t.split_at(line);
+    let mean = |v: &[Complex64]| v.iter().sum::<Complex64>() / v.len() as f64;
+    let (a, e) = (mean(l), mean(r));
+    let spread = |v: &[Complex64], c: Complex64| v.iter().map(|x| (x - c).norm_sqr()).sum::<f64>();
+    let noise = (spread(l, a) + spread(r, e)) / (m - 2) as f64;
+    if !(a.norm_sqr() > 0.0) {
+        return None;
+    }
+    let c = e / a;
+    let size = c.norm();
+    let sigma =
+        (noise * (1.0 / r.len() as f64 + size * size / l.len() as f64) / a.norm_sqr()).sqrt();
+    let horizon = c.arg().abs();
+    let (max, sigmas, horizon_max) = (
+        f64::from(MAX_RATIO),
+        f64::from(SIGMAS),
+        f64::from(HORIZON_PHASE),
+    );
+    margin.note(size, max);
+    margin.note(1.0 - size, sigmas * sigma);
+    margin.note(horizon, horizon_max);
+    let delta = setup.array.elements[line].el - setup.array.elements[0].el;
+    let kd = (setup.kappa * delta).abs();
+    let accept = size <= max && 1.0 - size >= sigmas * sigma && horizon <= horizon_max && kd > 0.0;
+    accept.then(|| size.acos() / kd)
 }
 
 /// Beyond the spec, `Params::joint_elevation` (core module [`dbe_radar::joint`]): range bin by

@@ -276,7 +276,7 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
     assert_eq!(json["goals"].as_array().map(Vec::len), Some(9));
     assert_eq!(
         json["odometry"].as_array().map(Vec::len),
-        Some(host_sim::eval::odometry::SEQUENCES.len() * 2)
+        Some(host_sim::eval::odometry::SEQUENCES.len() * 3)
     );
     for h in [
         "## Definitions",
@@ -303,7 +303,7 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
             assert_eq!(r.trials, e.config.trials_per_snr);
         }
     }
-    assert!(!e.defaults.is_empty() && e.recommendations.len() == 10);
+    assert!(!e.defaults.is_empty() && e.recommendations.len() == 11);
     // A report never overwrites an unrelated folder's summary half-way: writing twice works.
     write_report(e, dir.path())?;
     Ok(())
@@ -514,9 +514,11 @@ fn scene_points_lie_on_the_surfaces() {
 fn the_odometry_section_runs_both_chains_on_every_sequence() {
     let e = quick();
     let seqs = host_sim::eval::odometry::SEQUENCES;
-    assert_eq!(e.odometry.len(), seqs.len() * 2);
+    // The DBE chain, the FFT chain and the DBE chain with the ring split.
+    let ring = host_sim::eval::sweep_name(&host_sim::eval::SweepValue::RingSplit(true));
+    assert_eq!(e.odometry.len(), seqs.len() * 3);
     for s in &seqs {
-        for v in [names::DBE, names::FFT] {
+        for v in [names::DBE, names::FFT, ring.as_str()] {
             let r = e
                 .odometry
                 .iter()
@@ -543,7 +545,7 @@ fn the_odometry_section_runs_both_chains_on_every_sequence() {
         assert!(r.ego.estimated_while_moving_pct > 95.0, "{r:?}");
     }
     let summary = &e.odometry_summary;
-    assert_eq!(summary.len(), seqs.len() * 2);
+    assert_eq!(summary.len(), seqs.len() * 3);
     assert!(summary
         .iter()
         .filter(|s| s.variant == names::DBE)

@@ -779,3 +779,48 @@ fn joint_elevation_fit_agrees_and_separates_a_crowded_range_bin() -> TestResult 
     assert!(fitted < 0.5 * capon, "Capon {capon}°, joint {fitted}°");
     Ok(())
 }
+
+/// `Params::ring_split` (`dbe_radar::ring`): on scenes with walls and poles the core and the
+/// reference split the same points into the same pairs, and the split happens (more points
+/// than without it on some frame).
+#[test]
+fn ring_split_agrees_on_the_scenes_with_vertical_surfaces() -> TestResult {
+    let sensor = SensorConfig::coloradar();
+    let off = Params::defaults(sensor.samples);
+    let on = Params {
+        ring_split: true,
+        ..off
+    };
+    let scenes = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut extra = 0usize;
+    for name in ["corridor", "outdoor_poles_walls", "cluttered_room"] {
+        let scene = host_sim::sim::load_scene(&scenes.join(format!("{name}.toml")))?;
+        let sim = host_sim::sim::Simulation::new(&scene, &sensor)?;
+        let frames: Vec<AdcFrame> = [0usize, 7, 14]
+            .iter()
+            .map(|&i| sim.frame(i).map(|f| f.adc))
+            .collect::<Result<_, _>>()?;
+        let reports = validate_frames(
+            frames.iter().cloned().map(Ok::<_, std::io::Error>),
+            &sensor,
+            &on,
+        )?;
+        let table = format_table(&reports);
+        eprintln!("{name}\n{table}");
+        assert!(
+            reports.iter().all(|r| r.agreement.is_match()),
+            "{name}\n{table}"
+        );
+        for f in &frames {
+            let count = |p: &Params| {
+                CoreRunner::new(&sensor, *p)?
+                    .process(f)
+                    .map(|o| o.points.len())
+            };
+            let (a, b) = (count(&off)?, count(&on)?);
+            extra += b.saturating_sub(a);
+        }
+    }
+    assert!(extra > 0, "no point was split on any frame");
+    Ok(())
+}

@@ -39,11 +39,25 @@ pub fn norm(p: [f64; 3]) -> f64 {
     (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt()
 }
 
-/// A frame's chirps in TDM order: `chirps[k·TX + t][r][n] = [I, Q]`.
+/// A frame's chirps in TDM order: `chirps[k·TX + t][r][n] = [I, Q]`; every target's carrier
+/// phase drawn at random.
 pub fn synth<const N: usize, const K: usize, const TX: usize, const RX: usize>(
     w: &Waveform,
     g: &AntennaGeometry<TX, RX>,
     targets: &[Target],
+    noise_std: f64,
+    seed: u64,
+) -> Vec<[[[i16; 2]; N]; RX]> {
+    synth_phased::<N, K, TX, RX>(w, g, targets, None, noise_std, seed)
+}
+
+/// [`synth`] with the targets' carrier phases given (radians, one per target) instead of
+/// drawn.
+pub fn synth_phased<const N: usize, const K: usize, const TX: usize, const RX: usize>(
+    w: &Waveform,
+    g: &AntennaGeometry<TX, RX>,
+    targets: &[Target],
+    given: Option<&[f64]>,
     noise_std: f64,
     seed: u64,
 ) -> Vec<[[[i16; 2]; N]; RX]> {
@@ -55,10 +69,13 @@ pub fn synth<const N: usize, const K: usize, const TX: usize, const RX: usize>(
     let kappa = std::f64::consts::PI * fc / g.f_design_hz;
     let tc = w.idle_time_s + w.ramp_end_time_s;
     let t_loop = TX as f64 * tc;
-    let phases: Vec<f64> = targets
-        .iter()
-        .map(|_| rng.gen_range(0.0..std::f64::consts::TAU))
-        .collect();
+    let phases: Vec<f64> = match given {
+        Some(p) => p.to_vec(),
+        None => targets
+            .iter()
+            .map(|_| rng.gen_range(0.0..std::f64::consts::TAU))
+            .collect(),
+    };
     let mut out = vec![[[[0i16; 2]; N]; RX]; K * TX];
     for k in 0..K {
         for t in 0..TX {

@@ -53,6 +53,13 @@ pub struct ParamArgs {
     /// better than one) is resolved as two detections (`Params::coherent_split`).
     #[arg(long)]
     pub no_coherent_split: bool,
+    /// Turn the ring split on: a point at the horizon whose elevation row sees it clearly
+    /// weaker than its azimuth line does (the two returns of a vertical surface's range ring,
+    /// above and below the radar) becomes two points at the pair's elevations
+    /// (`Params::ring_split`). Better ego-velocity and odometry on scenes with walls and poles
+    /// beside the path, less accurate points (`dbe eval`).
+    #[arg(long)]
+    pub ring_split: bool,
     /// Spatially smooth the azimuth covariance over two 7-element sub-lines: coherent pairs
     /// 12° or more apart are always resolved, at the cost of one element of azimuth aperture.
     #[arg(long)]
@@ -106,6 +113,7 @@ impl ParamArgs {
         if self.no_coherent_split {
             p.coherent_split = false;
         }
+        p.ring_split = self.ring_split;
         p.spatial_smoothing = self.spatial_smoothing;
         p.joint_elevation = self.joint_elevation;
         if let Some(t) = self.cfar_threshold_db {

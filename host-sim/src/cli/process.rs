@@ -234,6 +234,7 @@ fn run_record(
             "spatial_smoothing": params.spatial_smoothing,
             "joint_elevation": params.joint_elevation,
             "coherent_split": params.coherent_split,
+            "ring_split": params.ring_split,
             "doppler_test_db": params.doppler_test_db,
             "doppler_agreement_bins": params.doppler_agreement_bins,
             "cfar_threshold_db": params.cfar.threshold_db,

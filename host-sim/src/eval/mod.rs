@@ -261,6 +261,8 @@ pub enum SweepValue {
     JointElevation(bool),
     /// The coherent split of merged coherent pairs (`Params::coherent_split`).
     CoherentSplit(bool),
+    /// The ring split of vertical surfaces' returns (`Params::ring_split`).
+    RingSplit(bool),
 }
 
 impl SweepValue {
@@ -277,6 +279,7 @@ impl SweepValue {
             SweepValue::WindowGate(_) => "CFAR window gate (dB)",
             SweepValue::JointElevation(_) => "joint elevation fit",
             SweepValue::CoherentSplit(_) => "coherent split",
+            SweepValue::RingSplit(_) => "ring split",
         }
     }
 
@@ -291,9 +294,9 @@ impl SweepValue {
             SweepValue::Coherent(c) => format!("{c}"),
             SweepValue::DopplerAgreement(g) => format!("{g}"),
             SweepValue::WindowGate(g) => format!("{g}"),
-            SweepValue::JointElevation(on) | SweepValue::CoherentSplit(on) => {
-                String::from(if *on { "on" } else { "off" })
-            }
+            SweepValue::JointElevation(on)
+            | SweepValue::CoherentSplit(on)
+            | SweepValue::RingSplit(on) => String::from(if *on { "on" } else { "off" }),
         }
     }
 
@@ -315,6 +318,7 @@ impl SweepValue {
             SweepValue::WindowGate(g) => params.cfar.window_gate_db = g,
             SweepValue::JointElevation(on) => params.joint_elevation = on,
             SweepValue::CoherentSplit(on) => params.coherent_split = on,
+            SweepValue::RingSplit(on) => params.ring_split = on,
         }
         params
     }
@@ -359,6 +363,9 @@ pub fn defaults_sweep() -> Vec<SweepValue> {
     }
     for on in [false, true] {
         v.push(SweepValue::CoherentSplit(on));
+    }
+    for on in [false, true] {
+        v.push(SweepValue::RingSplit(on));
     }
     v
 }
@@ -511,10 +518,13 @@ pub fn run_evaluation(
                 .map_or(String::new(), |n| format!(", first {n} frames"))
         ));
         let t = Instant::now();
+        // The DBE chain, the FFT chain, and the DBE chain with the ring split, which is off
+        // by default for the point clouds and measured here for the ego-velocity.
+        let ring = sweep_name(&SweepValue::RingSplit(true));
         let rows = odometry::run_odometry(
             &ctx.sensor,
             &bench,
-            &[idx(names::DBE)?, idx(names::FFT)?],
+            &[idx(names::DBE)?, idx(names::FFT)?, idx(&ring)?],
             config.seed,
             config.odometry_seeds,
             config.odometry_frames,

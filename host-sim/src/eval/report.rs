@@ -398,13 +398,18 @@ fn resolution_section(m: &mut String, e: &Evaluation) {
         is always resolved by Doppler, whatever the angle (its azimuth resolution, the 8-element Rayleigh width of \
         about 14°, never matters here). The DBE chain resolves in angle: Capon separates non-coherent targets well \
         below the Rayleigh width; coherent targets cancel partly in the Capon covariance, and forward–backward averaging \
-        of the azimuth line restores rank 2 for most phase differences, so their azimuths are often found. The full \
-        12-element covariance of the elevation stage is not averaged (the array is not centro-symmetric: averaging \
+        of the azimuth line restores rank 2 unless the two returns are nearly in phase or in antiphase at the line's \
+        centre. In phase they merge into one map peak at their midpoint; the coherent split (`Params::coherent_split`) \
+        takes such a detection apart when it has no coherent partner, its compensated line covariance is nearly rank 1 \
+        and two exponentials fit its principal eigenvector far better than one (forward–backward linear prediction \
+        of order 2), giving two detections at the fitted azimuths. The fit needs a rank-1 covariance, which is why \
+        coherent pairs are resolved below the separation where non-coherent pairs (rank 2, Capon alone) start to \
+        split. The full 12-element covariance of the elevation stage is not averaged (the array is not centro-symmetric: averaging \
         mirrors +θ onto −θ) and stays rank 1 for a coherent pair, so a detection whose azimuth beam shares its Doppler \
         with another of its range bin is resolved on the centro-symmetric 2 × 4 sub-array with forward–backward \
         averaging instead (`Params::coherent_doppler_bins`); the last columns give the elevation RMSE of the resolved \
-        points. How often a coherent pair is split depends on the phase difference of the two returns as well as on \
-        their separation, which is why it is not zero below the separation where non-coherent pairs start to split.\n");
+        points. Without the split (`--no-coherent-split`) how often a coherent pair is resolved depends on the phase \
+        difference of the two returns as much as on their separation.\n");
 }
 
 fn chamfer_section(m: &mut String, e: &Evaluation) {
@@ -874,6 +879,39 @@ fn odometry_section(m: &mut String, e: &Evaluation) {
             _ => "",
         },
     );
+    let ring = crate::eval::sweep_name(&crate::eval::SweepValue::RingSplit(true));
+    let drifts: Vec<String> = e
+        .odometry_summary
+        .iter()
+        .filter(|s| s.variant == ring)
+        .filter_map(|r| {
+            let base = e
+                .odometry_summary
+                .iter()
+                .find(|s| s.sequence == r.sequence && s.variant == names::DBE)?;
+            Some(format!(
+                "{} {:.2} → {:.2}",
+                r.sequence, base.drift.xyz_pct, r.drift.xyz_pct
+            ))
+        })
+        .collect();
+    if !drifts.is_empty() {
+        let _ = writeln!(
+            m,
+            "\nMuch of that bias is the elevation of vertical surfaces: a wall or a pole returns from one range at \
+             two heights, above and below the radar, at one azimuth and one Doppler; a line plus one elevation \
+             row sees one source at their midpoint, so the point sits at the horizon, nearer the boresight than \
+             either return, and its `−u·v` reads a faster radar than its Doppler does, by `≈ ν₀²/(2·u_x)`, most \
+             at wide azimuth. The `{ring}` rows run the DBE chain with the ring split (`Params::ring_split`, \
+             `dbe_radar::ring`), which turns such a point into two at the elevations the row's amplitude \
+             against the line's implies: scale {}; XYZ drift (% of the path) {}. It is off by default because \
+             one complex ratio cannot tell a pair's separation from its phase, so single split points can sit \
+             degrees off in elevation (defaults sweep: more false points on the scenes, a larger Chamfer \
+             distance).",
+            scales(&ring),
+            drifts.join(", "),
+        );
+    }
     let z_worst = e
         .odometry_summary
         .iter()
