@@ -1032,7 +1032,7 @@ impl<
                     sine_at(span, NEL, j as f32 - 0.5),
                     sine_at(span, NEL, j as f32 + 0.5),
                 );
-                let kappa_delta = self.kappa * self.layout.el[AZ.min(M - 1)];
+                let kappa_delta = self.kappa_delta();
                 spectrum.peak_nu(kappa_delta, self.el_nu[j], lo.min(hi), lo.max(hi))
             } else {
                 self.el_nu[j]
@@ -1083,6 +1083,12 @@ impl<
         }
     }
 
+    /// `κ·Δ`: the elevation phase per unit `ν` between the elevation row and the line (0 on
+    /// an array without a row).
+    fn kappa_delta(&self) -> f32 {
+        self.kappa * self.layout.el[AZ.min(M - 1)]
+    }
+
     /// The half-separation in `ν` of a ring pair ([`crate::ring`]) at azimuth `mu` whose
     /// Doppler is `doppler` (bins, fractional), or `None`: every antenna's slow time
     /// (rotated by the TDM compensation `rot`) windowed and transformed at the Doppler,
@@ -1114,7 +1120,7 @@ impl<
             let desteer = Complex32::from_polar(1.0, self.kappa * mu * self.layout.az[m]);
             *tm = Complex32::new(re, im) * rot[m] * desteer;
         }
-        let kappa_delta = libm::fabsf(self.kappa * self.layout.el[AZ.min(M - 1)]);
+        let kappa_delta = libm::fabsf(self.kappa_delta());
         ring::half_phase(&t, AZ)
             .map(|h| h / kappa_delta)
             .filter(|h| h.is_finite())

@@ -316,6 +316,15 @@ impl VirtualArray {
     fn len(&self) -> usize {
         self.elements.len()
     }
+
+    /// Height of the first off-line element above the line, half-wavelength units (0 without
+    /// one): the `Δ` of the elevation phase `κ·Δ·ν` between the row and the line.
+    fn row_offset(&self) -> f64 {
+        match (self.elements.first(), self.elements.get(self.line)) {
+            (Some(line), Some(row)) => row.el - line.el,
+            _ => 0.0,
+        }
+    }
 }
 
 /// Symmetric window of length `n`: `w[k]` with period `n − 1` (as `numpy.blackman(n)`).
@@ -659,12 +668,7 @@ impl Setup {
         near: f64,
         (lo, hi): (f64, f64),
     ) -> f64 {
-        let delta = self
-            .array
-            .elements
-            .get(self.array.line)
-            .map_or(0.0, |e| e.el);
-        let kd = self.kappa * delta;
+        let kd = self.kappa * self.array.row_offset();
         if kd == 0.0 {
             return near.clamp(lo, hi);
         }
@@ -1889,8 +1893,7 @@ fn ring_half(
     margin.note(size, max);
     margin.note(1.0 - size, sigmas * sigma);
     margin.note(horizon, horizon_max);
-    let delta = setup.array.elements[line].el - setup.array.elements[0].el;
-    let kd = (setup.kappa * delta).abs();
+    let kd = (setup.kappa * setup.array.row_offset()).abs();
     let accept = size <= max && 1.0 - size >= sigmas * sigma && horizon <= horizon_max && kd > 0.0;
     accept.then(|| size.acos() / kd)
 }

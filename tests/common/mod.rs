@@ -70,7 +70,10 @@ pub fn synth_phased<const N: usize, const K: usize, const TX: usize, const RX: u
     let tc = w.idle_time_s + w.ramp_end_time_s;
     let t_loop = TX as f64 * tc;
     let phases: Vec<f64> = match given {
-        Some(p) => p.to_vec(),
+        Some(p) => {
+            assert_eq!(p.len(), targets.len(), "one phase per target");
+            p.to_vec()
+        }
         None => targets
             .iter()
             .map(|_| rng.gen_range(0.0..std::f64::consts::TAU))
