@@ -168,7 +168,8 @@ pub struct Params {
     /// there, but 0.23 → 0.40 % on aspen and 0.36 → 0.48 % on army) and costs the point
     /// cloud (defaults sweep: false points per scene frame 0.86 → 1.26, Chamfer distance
     /// 0.959 → 0.967 m), because one complex ratio cannot tell a pair's separation from its
-    /// phase.
+    /// phase. On real boards it needs the elevation row's gain matched to the line's
+    /// ([`crate::ring`], "Real arrays").
     pub ring_split: bool,
     /// Azimuth grid: first and last angle, degrees (the grid size is a const generic).
     pub azimuth_span_deg: (f32, f32),
