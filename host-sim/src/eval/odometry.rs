@@ -183,6 +183,9 @@ pub struct OdometrySummary {
     pub estimated_while_moving_pct: f64,
     /// Ego-velocity covariance consistency (mean NEES per axis, 1 = consistent; mean).
     pub ego_nees: f64,
+    /// The estimator's own σ per axis, RMS over its estimates, m/s (mean;
+    /// [`crate::odometry::EgoErrors::predicted_rms_mps`]).
+    pub ego_predicted_rms_mps: [f64; 3],
     /// Points per frame (mean).
     pub points_per_frame: f64,
     /// Radial-velocity scale of the static points (mean; [`RadialConsistency::scale`]).
@@ -252,6 +255,7 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
                 ego_rmse_mps: [0, 1, 2].map(|i| me(&|r| r.ego.rmse_mps[i])),
                 estimated_while_moving_pct: me(&|r| r.ego.estimated_while_moving_pct),
                 ego_nees: me(&|r| r.ego.nees),
+                ego_predicted_rms_mps: [0, 1, 2].map(|i| me(&|r| r.ego.predicted_rms_mps[i])),
                 points_per_frame: me(&|r| r.points_per_frame),
                 radial_scale: me(&|r| r.radial.scale),
                 radial_rms_slow_fast_mps: [0, 1].map(|i| me(&|r| r.radial.rms_slow_fast_mps[i])),

@@ -96,6 +96,9 @@ pub struct EgoErrors {
     /// Consistency of the reported covariances: the mean of `eᵀ·Σ⁻¹·e / 3` over the `ok`
     /// estimates (1 for a covariance that matches the errors; above 1 it is too small).
     pub nees: f64,
+    /// The estimator's own standard deviation per axis, RMS over the same `ok` estimates,
+    /// m/s: the RMSE a consistent covariance predicts (`√(mean Σ_ii)`).
+    pub predicted_rms_mps: [f64; 3],
 }
 
 /// The errors of `frames`' estimates against `truth(t)`, the radar's true velocity in its own
@@ -105,7 +108,7 @@ pub fn ego_errors(
     truth: impl Fn(f64) -> Option<Vector3<f64>>,
 ) -> EgoErrors {
     let (mut sq, mut n, mut moving, mut moving_ok) = ([0.0f64; 3], 0usize, 0usize, 0usize);
-    let (mut nees, mut n_ok) = (0.0, 0usize);
+    let (mut nees, mut n_ok, mut var) = (0.0, 0usize, [0.0f64; 3]);
     for f in frames {
         let Some(t) = truth(f.measure_time_s) else {
             continue;
@@ -125,6 +128,9 @@ pub fn ego_errors(
                 if let Some(inv) = z.covariance.try_inverse() {
                     nees += (e.transpose() * inv * e)[(0, 0)] / 3.0;
                     n_ok += 1;
+                    for (i, v) in var.iter_mut().enumerate() {
+                        *v += z.covariance[(i, i)];
+                    }
                 }
             }
         }
@@ -149,6 +155,13 @@ pub fn ego_errors(
         } else {
             f64::NAN
         },
+        predicted_rms_mps: var.map(|v| {
+            if n_ok > 0 {
+                (v / n_ok as f64).sqrt()
+            } else {
+                f64::NAN
+            }
+        }),
     }
 }
 
@@ -395,4 +408,59 @@ pub fn ego_csv(frames: &[FrameVelocity]) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(t: f64, v: [f32; 3], var: [f32; 3], status: EgoStatus) -> FrameVelocity {
+        let mut covariance = [[0.0f32; 3]; 3];
+        for (i, row) in covariance.iter_mut().enumerate() {
+            row[i] = var[i];
+        }
+        FrameVelocity {
+            frame_time_s: t,
+            measure_time_s: t,
+            points: 10,
+            ego: EgoVelocity {
+                velocity: dbe_radar::Vec3::new(v[0], v[1], v[2]),
+                covariance,
+                inliers: 10,
+                points: 10,
+                status,
+            },
+        }
+    }
+
+    #[test]
+    fn errors_nees_and_predicted_spread_by_hand() {
+        // Truth (1, 0, 0) throughout. Two `ok` frames, one standstill (counted in the RMSE,
+        // not in the covariance statistics), one without an estimate.
+        let frames = [
+            frame(0.0, [1.1, 0.0, 0.2], [0.01, 0.04, 0.09], EgoStatus::Ok),
+            frame(0.1, [0.9, 0.2, 0.0], [0.03, 0.02, 0.07], EgoStatus::Ok),
+            frame(
+                0.2,
+                [0.0, 0.0, 0.0],
+                [0.0004, 0.0004, 0.0004],
+                EgoStatus::Standstill,
+            ),
+            frame(0.3, [0.0, 0.0, 0.0], [0.0; 3], EgoStatus::TooFewPoints),
+        ];
+        let e = ego_errors(&frames, |_| Some(Vector3::new(1.0, 0.0, 0.0)));
+        assert_eq!((e.frames_compared, e.moving_frames), (3, 4));
+        assert!((e.estimated_while_moving_pct - 75.0).abs() < 1e-9);
+        let rmse = [(0.01f64 + 0.01 + 1.0) / 3.0, 0.04 / 3.0, 0.04 / 3.0].map(f64::sqrt);
+        let nees = ((0.01 / 0.01 + 0.04 / 0.09) + (0.01 / 0.03 + 0.04 / 0.02)) / 6.0;
+        let predicted = [0.02f64, 0.03, 0.08].map(f64::sqrt);
+        for i in 0..3 {
+            assert!((e.rmse_mps[i] - rmse[i]).abs() < 1e-6, "{e:?}");
+            assert!(
+                (e.predicted_rms_mps[i] - predicted[i]).abs() < 1e-6,
+                "{e:?}"
+            );
+        }
+        assert!((e.nees - nees).abs() < 1e-5, "{e:?}");
+    }
 }
