@@ -220,6 +220,30 @@ fn readme_odometry_table_is_the_committed_report() -> TestResult {
             "README lacks the report's line\n{line}"
         );
     }
+    let sigma_z = ["hallways", "outdoors", "aspen", "army"]
+        .iter()
+        .map(|seq| {
+            let d = find(seq, "dbe")?;
+            let (sigma, rmse) = (
+                num(&d["ego_predicted_rms_mps"][2], "predicted σ_z")?,
+                num(&d["ego_rmse_mps"][2], "RMSE z")?,
+            );
+            // README: "at or above the RMSE z in the table" (as printed, 3 decimals).
+            if (sigma * 1e3).round() < (rmse * 1e3).round() {
+                return Err(format!(
+                    "{seq}: predicted σ_z {sigma:.3} below RMSE z {rmse:.3}"
+                ));
+            }
+            Ok(format!("{sigma:.3}"))
+        })
+        .collect::<Result<Vec<_>, String>>()?
+        .join(" / ");
+    assert!(
+        one_line(&readme).contains(&format!(
+            "over its estimates, the report's goal row) is {sigma_z} m/s"
+        )),
+        "README lacks the report's predicted σ_z {sigma_z}"
+    );
     Ok(())
 }
 
