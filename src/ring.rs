@@ -43,24 +43,24 @@
 //! test measures); a floor return has one height per range and direction.
 //! Measured by `dbe eval` (defaults sweep and odometry section).
 //!
-//! Where the false points come from (`dbe eval`, one run each, not kept): comparing each row element with the
-//! line element below it (same azimuth position, so returns of other azimuths at one height
-//! cancel exactly) instead of the row's mean with the line's split more points, not fewer:
-//! false points per scene frame 1.26 → 1.61 with the fit's residual as the noise, 1.32 with the
-//! line's spread added; and no split below `|c| = 0.5` only 1.26 → 1.21. The false points are
-//! the pairs whose separation the phase `φ` widens, not leakage from other azimuths; the
-//! line's spread about one direction, which this test counts as noise, is what keeps a
-//! cluttered Doppler bin from being split.
+//! Where the false points come from (`dbe eval`, one run each, not kept): comparing each row
+//! element with the line element below it (same azimuth position, so returns of other azimuths at
+//! one height cancel exactly) instead of the row's mean with the line's split more points, not
+//! fewer: false points per scene frame 1.26 → 1.61 with the fit's residual as the noise, 1.32 with
+//! the line's spread added; and no split below `|c| = 0.5` only 1.26 → 1.21. The false points are
+//! the pairs whose separation the phase `φ` widens, not leakage from other azimuths; the line's
+//! spread about one direction, which this test counts as noise, is what keeps a cluttered Doppler
+//! bin from being split.
 //!
-//! Real arrays: `|c|` is the row's amplitude against the line's, so the split needs the two
-//! matched in gain to a few per cent. The row is fed by a different TX channel than most of
-//! the line, and the frontend calibrates coupling, not per-antenna gain: on elements matched
-//! well enough that `σ_c` stays small, a row 0.7 dB (8 %) weaker than the line splits every
-//! clean point at the horizon, by `±acos(0.92)/(κΔ)` (±7° on a row half a wavelength up). On the TI IWR6843 capture in `../shared/fixtures` the
-//! corner reflector (the only point that reaches the test, printed from the f64 reference) has
-//! `|c|` = 1.05, its row 0.46 dB stronger than the line, and `σ_c` = 0.14 from the elements'
-//! uncalibrated spread, so nothing splits there; a board whose row is weaker could. Check a
-//! recording first: a corner reflector must stay one point with the split on.
+//! Real arrays: `|c|` is the row's amplitude against the line's, so the split needs the two matched
+//! in gain to a few per cent. The row is fed by a different TX channel than most of the line, and
+//! the frontend calibrates coupling, not per-antenna gain: on elements matched well enough that
+//! `σ_c` stays small, a row 0.7 dB (8 %) weaker than the line splits every clean point at the
+//! horizon, by `±acos(0.92)/(κΔ)` (±7° on a row half a wavelength up). On the TI IWR6843 capture in
+//! `../shared/fixtures` the corner reflector (the only point that reaches the test, printed from
+//! the f64 reference) has `|c|` = 1.05, its row 0.46 dB stronger than the line, and `σ_c` = 0.14
+//! from the elements' uncalibrated spread, so nothing splits there; a board whose row is weaker
+//! could. Check a recording first: a corner reflector must stay one point with the split on.
 
 use num_complex::Complex32;
 
