@@ -152,6 +152,40 @@ impl EgoParams {
 }
 
 impl EgoParams {
+    /// The unit direction `u` (radar frame) and range `r` of `point` if the estimator's gate
+    /// admits it (range, |azimuth|, |elevation|, SNR, a finite radial velocity), else `None`:
+    /// the points a fit uses, for a caller that uses them one by one (a filter's per-point
+    /// Doppler update on a frame with too few points for a fit).
+    pub fn admit(&self, point: &Point) -> Option<(Vec3, f32)> {
+        self.admitted(point, self.gate_sines())
+    }
+
+    /// `(sin max_azimuth, sin max_elevation)`.
+    fn gate_sines(&self) -> (f32, f32) {
+        (
+            libm::sinf(self.max_azimuth_deg.to_radians()),
+            libm::sinf(self.max_elevation_deg.to_radians()),
+        )
+    }
+
+    /// [`Self::admit`] with the sines of the angle limits given.
+    #[inline(always)]
+    fn admitted(&self, pt: &Point, (sin_az, sin_el): (f32, f32)) -> Option<(Vec3, f32)> {
+        let r = pt.position.length();
+        if !(r >= self.min_range_m && r <= self.max_range_m && pt.snr_db >= self.min_snr_db) {
+            return None;
+        }
+        let u = pt.position / r;
+        // μ = −u_y = cos θ·sin φ; |φ| ≤ max ⇔ |μ| ≤ cos θ·sin(max).
+        let cos_el = libm::sqrtf((1.0 - u.z * u.z).max(0.0));
+        if u.z.abs() > sin_el || u.y.abs() > cos_el * sin_az || !pt.velocity_mps.is_finite() {
+            return None;
+        }
+        Some((u, r))
+    }
+}
+
+impl EgoParams {
     /// Every field zero (an unconfigured estimator).
     const ZEROED: Self = Self {
         min_range_m: 0.0,
@@ -385,23 +419,12 @@ impl<const P: usize> EgoEstimator<P> {
 
     /// Copy the points that pass the gate into the scratch rows; returns their number.
     fn gate(&mut self, points: &[Point]) -> usize {
-        let p = &self.params;
-        let (sin_az, sin_el) = (
-            libm::sinf(p.max_azimuth_deg.to_radians()),
-            libm::sinf(p.max_elevation_deg.to_radians()),
-        );
+        let sines = self.params.gate_sines();
         let mut n = 0;
         for pt in points {
-            let r = pt.position.length();
-            if !(r >= p.min_range_m && r <= p.max_range_m && pt.snr_db >= p.min_snr_db) {
+            let Some((u, r)) = self.params.admitted(pt, sines) else {
                 continue;
-            }
-            let u = pt.position / r;
-            // μ = −u_y = cos θ·sin φ; |φ| ≤ max ⇔ |μ| ≤ cos θ·sin(max).
-            let cos_el = libm::sqrtf((1.0 - u.z * u.z).max(0.0));
-            if u.z.abs() > sin_el || u.y.abs() > cos_el * sin_az || !pt.velocity_mps.is_finite() {
-                continue;
-            }
+            };
             if let (Some(row), Some(y), Some(inv_r)) = (
                 self.rows.get_mut(n),
                 self.y.get_mut(n),

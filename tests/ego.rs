@@ -200,6 +200,18 @@ fn too_few_gated_or_coplanar_points_are_reported() {
     })
     .estimate(&gated);
     assert_eq!((e.status, e.points), (EgoStatus::TooFewPoints, 1));
+    // `admit` is that gate, point by point: the unit direction and range of the one it keeps.
+    let admitted: Vec<(Vec3, f32)> = gated
+        .iter()
+        .filter_map(|p| EgoParams::DEFAULT.admit(p))
+        .collect();
+    let kept = gated[3].position;
+    assert_eq!(admitted.len(), 1, "{admitted:?}");
+    assert!((admitted[0].0 - kept.normalize()).length() < 1e-6);
+    assert!((admitted[0].1 - kept.length()).abs() < 1e-5 * kept.length());
+    let mut unknown = gated[3];
+    unknown.velocity_mps = f32::NAN;
+    assert_eq!(EgoParams::DEFAULT.admit(&unknown), None);
     // Every point in the horizontal plane: v_z is not observable.
     let flat: Vec<Point> = (0..30)
         .map(|_| {
