@@ -200,6 +200,7 @@ fn perfect_radar(scene: &Scene, frames: usize, sigma: f64, seed: u64) -> Vec<Fra
                 measure_time_s: tm,
                 points: 20,
                 ego,
+                radials: Vec::new(),
             }
         })
         .collect()
@@ -307,6 +308,117 @@ fn ekf_gates_a_wrong_velocity_and_takes_a_right_one() -> TestResult {
         covariance: cov,
     };
     assert_eq!(ekf.update(&right), UpdateOutcome::Applied);
+    Ok(())
+}
+
+/// Frames without a velocity estimate: three static points each (two at ±40° azimuth, one at
+/// 25° elevation, 5 m, radial velocities exact but for white noise `sigma`) and a walker
+/// straight ahead approaching at 1.2 m/s.
+fn three_points_and_a_walker(
+    scene: &Scene,
+    frames: usize,
+    sigma: f64,
+    seed: u64,
+) -> Vec<FrameVelocity> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let noise = Normal::new(0.0, sigma).unwrap_or_else(|_| unreachable!());
+    let (a, e) = (40f64.to_radians(), 25f64.to_radians());
+    let statics = [
+        Vector3::new(a.cos(), a.sin(), 0.0),
+        Vector3::new(a.cos(), -a.sin(), 0.0),
+        Vector3::new(e.cos(), 0.0, e.sin()),
+    ];
+    (0..frames)
+        .map(|i| {
+            let t = i as f64 / scene.frame_rate_hz;
+            let tm = t + 0.025;
+            let v = scene.radar_velocity(tm);
+            let radial = |u: Vector3<f64>, extra: f64| odometry::ekf::RadialVelocity {
+                direction: u,
+                range_m: 5.0,
+                velocity_mps: -u.dot(&v) + extra,
+            };
+            let mut radials: Vec<_> = statics
+                .iter()
+                .map(|&u| radial(u, noise.sample(&mut rng)))
+                .collect();
+            radials.push(radial(Vector3::x(), -1.2));
+            FrameVelocity {
+                frame_time_s: t,
+                measure_time_s: tm,
+                points: 4,
+                ego: dbe_radar::EgoVelocity {
+                    points: 4,
+                    ..Default::default()
+                },
+                radials,
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn point_updates_keep_the_filter_on_three_points_a_frame_and_gate_a_walker() -> TestResult {
+    // No frame has an ego-velocity (too few points), so the filter runs on single-point Doppler
+    // updates alone. Three static directions give the whole velocity with the per-axis spread
+    // σ_v = σ·√λ_max((HᵀH)⁻¹); the drift bound is the perfect-velocity test's with that σ_v.
+    // The walker's radial velocity is 1.2 m/s off the static scene's: every one is gated.
+    // Without point updates the IMU alone integrates for 42 s and drifts far beyond the bound.
+    let scene = hallways();
+    let spec = ImuSpec::default();
+    let (frames, t_end, sigma) = (430, 43.0, 0.02);
+    let imu = simulate_imu(&spec, &scene.sensor, &scene.rig.imu, t_end, 3);
+    let radar = three_points_and_a_walker(&scene, frames, sigma, 3);
+    let gt = truth_at(&scene.sensor, (0..frames).map(|i| i as f64 / 10.0));
+    let run = odometry::run(&EkfParams::default(), &imu, &radar, &scene.rig)?;
+    let u = &radar[0].radials;
+    let hth: Matrix3<f64> = u[..3]
+        .iter()
+        .map(|p| p.direction * p.direction.transpose())
+        .sum();
+    let inv = hth.try_inverse().ok_or("singular")?;
+    let sigma_v = sigma * inv.symmetric_eigenvalues().max().sqrt();
+    let e = metrics::evaluate(&run.trajectory, &gt).ok_or("no match")?;
+    let t = t_end - 1.0;
+    let sigma_yaw = ((spec.gyro_noise * t).powi(2)
+        + spec.gyro_noise.powi(2) * t
+        + spec.gyro_bias_walk.powi(2) * t.powi(3) / 3.0)
+        .sqrt();
+    let bound = 4.0 * sigma_yaw * e.path_length_m + 4.0 * sigma_v * (t * 0.1).sqrt();
+    assert!(
+        e.drift.xyz_m < bound,
+        "drift {} m > {bound} m",
+        e.drift.xyz_m
+    );
+    let c = &run.updates;
+    let updated = c.no_estimate;
+    assert_eq!(
+        (c.applied, c.gated, c.point_frames),
+        (0, 0, updated),
+        "{c:?}"
+    );
+    assert!(updated > 400, "{c:?}");
+    // Every walker gated; a static point gated at most as often as its 3.3σ gate allows.
+    assert!(c.points_gated >= updated, "{c:?}");
+    assert!(c.points_gated - updated <= 3 * updated / 100, "{c:?}");
+    assert_eq!(c.points_applied + c.points_gated, 4 * updated, "{c:?}");
+
+    let off = EkfParams {
+        point_updates: false,
+        ..EkfParams::default()
+    };
+    let imu_only = odometry::run(&off, &imu, &radar, &scene.rig)?;
+    assert_eq!(imu_only.updates.points_applied, 0);
+    let e_off = metrics::evaluate(&imu_only.trajectory, &gt).ok_or("no match")?;
+    assert!(
+        e_off.drift.xyz_m > 10.0 * bound,
+        "IMU alone {} m, bound {bound} m",
+        e_off.drift.xyz_m
+    );
+    eprintln!(
+        "drift on three points a frame {:.3} m (bound {bound:.3} m), IMU alone {:.1} m",
+        e.drift.xyz_m, e_off.drift.xyz_m
+    );
     Ok(())
 }
 

@@ -247,6 +247,72 @@ fn readme_odometry_table_is_the_committed_report() -> TestResult {
     Ok(())
 }
 
+/// README's paragraph on the filter's point updates quotes the report's ablation, and its
+/// verdict per sequence (less drift than FFT, or within the seeds' spread) is the report's.
+#[test]
+fn readme_point_update_figures_are_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let flat = one_line(&read("README.md")?);
+    let rows = summary["odometry_summary"]
+        .as_array()
+        .ok_or("summary.json has no odometry_summary")?;
+    let find = |seq: &str, v: &str| {
+        rows.iter()
+            .find(|r| r["sequence"] == seq && r["variant"] == v)
+            .ok_or_else(|| format!("summary.json: no odometry row {seq} {v}"))
+    };
+    let pair = |r: &Value| -> Result<(f64, f64), String> {
+        Ok((
+            num(&r["xyz_pct_without_point_updates"], "without")?,
+            num(&r["drift"]["xyz_pct"], "drift")?,
+        ))
+    };
+    let (d, f) = (
+        pair(find("outdoors", "dbe")?)?,
+        pair(find("outdoors", "fft")?)?,
+    );
+    let line = format!(
+        "from {:.2} to {:.2} % (DBE) and from {:.2} to {:.2} % (FFT)",
+        d.0, d.1, f.0, f.1
+    );
+    assert!(flat.contains(&line), "README lacks the report's {line}");
+    // Elsewhere only the FFT chain got point updates, on the sequences README names.
+    let mut elsewhere = Vec::new();
+    for seq in ["hallways", "aspen", "army"] {
+        let dbe = find(seq, "dbe")?;
+        assert_eq!(
+            num(&dbe["points_applied"], "points")?,
+            0.0,
+            "{seq}: DBE points"
+        );
+        let fft = find(seq, "fft")?;
+        if num(&fft["points_applied"], "points")? > 0.0 {
+            let (a, b) = pair(fft)?;
+            elsewhere.push(format!("{seq} {a:.2} to {b:.2} %"));
+        }
+    }
+    let line = format!("elsewhere ({};", elsewhere.join(", "));
+    assert!(flat.contains(&line), "README lacks the report's {line}");
+    // "less than the FFT chain on hallways, aspen; within the seeds' spread on army, outdoors".
+    for (seq, less) in [
+        ("hallways", true),
+        ("aspen", true),
+        ("army", false),
+        ("outdoors", false),
+    ] {
+        let p = find(seq, "dbe")?["xyz_pct_minus_fft"]
+            .as_array()
+            .ok_or_else(|| format!("{seq}: no paired difference"))?
+            .clone();
+        let (mean, sd) = (num(&p[0], "mean")?, num(&p[1], "sd")?);
+        match less {
+            true => assert!(mean < 0.0, "{seq}: DBE − FFT {mean:+.2}"),
+            false => assert!(mean.abs() <= sd, "{seq}: DBE − FFT {mean:+.2} ± {sd:.2}"),
+        }
+    }
+    Ok(())
+}
+
 /// README's sentence on realistic surfaces names, per comparison, the scenes where the
 /// committed report says it holds with them.
 #[test]

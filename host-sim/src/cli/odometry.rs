@@ -36,6 +36,11 @@ pub struct OdometryArgs {
     /// `groundtruth_tum.txt`, `trajectory_top.png`, `trajectory_side.png`.
     #[arg(long)]
     pub out: PathBuf,
+    /// Give the filter no single-point Doppler updates on frames whose points are too few
+    /// (or too flat) for an ego-velocity (an ablation; by default their gated points update
+    /// it one by one).
+    #[arg(long)]
+    pub no_point_updates: bool,
     #[command(flatten)]
     pub params: ParamArgs,
 }
@@ -145,7 +150,10 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         .collect();
     let frames =
         odometry::frame_velocities(&per_frame, host_sim::score::mid_frame_s(&opened.sensor))?;
-    let ekf = EkfParams::default();
+    let ekf = EkfParams {
+        point_updates: !args.no_point_updates,
+        ..EkfParams::default()
+    };
     let run = odometry::run(&ekf, &imu, &frames, &transforms).context("radar-inertial odometry")?;
     let dir = staged.path();
     let write = |name: &str, text: &str| {
@@ -198,10 +206,13 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     write("summary.json", &serde_json::to_string_pretty(&summary)?)?;
     staged.commit()?;
     println!(
-        "{} frames, {} radar updates ({} gated) in {:.1} s{line} → {}",
+        "{} frames, {} radar updates ({} gated), {} point updates on {} frames without one ({} gated) in {:.1} s{line} → {}",
         frames.len(),
         run.updates.applied,
         run.updates.gated,
+        run.updates.points_applied,
+        run.updates.point_frames,
+        run.updates.points_gated,
         started.elapsed().as_secs_f64(),
         args.out.display()
     );

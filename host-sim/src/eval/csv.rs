@@ -141,12 +141,12 @@ pub(super) fn csv_files(e: &Evaluation) -> Vec<(&'static str, String)> {
             r.chamfer_frames
         );
     }
-    let mut odo = String::from("sequence,seed,variant,frames,points_per_frame,ego_rmse_x_mps,ego_rmse_y_mps,ego_rmse_z_mps,estimated_while_moving_pct,updates_applied,updates_gated,path_length_m,ate_rmse_m,drift_xyz_m,drift_xyz_pct,drift_xy_pct,drift_z_pct,drift_yaw_deg\n");
+    let mut odo = String::from("sequence,seed,variant,frames,points_per_frame,ego_rmse_x_mps,ego_rmse_y_mps,ego_rmse_z_mps,estimated_while_moving_pct,updates_applied,updates_gated,point_frames,points_applied,points_gated,path_length_m,ate_rmse_m,drift_xyz_m,drift_xyz_pct,drift_xy_pct,drift_z_pct,drift_yaw_deg,drift_xyz_pct_without_point_updates\n");
     for r in &e.odometry {
         let t = r.errors.as_ref();
         let _ = writeln!(
             odo,
-            "{},{},{},{},{:.2},{:.4},{:.4},{:.4},{:.1},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{:.2},{:.4},{:.4},{:.4},{:.1},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.sequence,
             r.seed,
             r.variant,
@@ -158,6 +158,9 @@ pub(super) fn csv_files(e: &Evaluation) -> Vec<(&'static str, String)> {
             r.ego.estimated_while_moving_pct,
             r.updates.applied,
             r.updates.gated,
+            r.updates.point_frames,
+            r.updates.points_applied,
+            r.updates.points_gated,
             csv_opt(t.map(|t| t.path_length_m)),
             csv_opt(t.map(|t| t.ate_rmse_m)),
             csv_opt(t.map(|t| t.drift.xyz_m)),
@@ -165,6 +168,7 @@ pub(super) fn csv_files(e: &Evaluation) -> Vec<(&'static str, String)> {
             csv_opt(t.map(|t| t.drift.xy_pct)),
             csv_opt(t.map(|t| t.drift.z_pct)),
             csv_opt(t.map(|t| t.drift.yaw_deg)),
+            csv_opt(r.xyz_pct_without_point_updates),
         );
     }
     vec![

@@ -67,6 +67,9 @@ pub struct OdometryRow {
     pub updates: UpdateCounts,
     /// Trajectory errors (`None` if the filter could not run).
     pub errors: Option<metrics::TrajectoryErrors>,
+    /// The same filter without point updates on frames without an estimate (the ablation of
+    /// [`EkfParams::point_updates`]): XYZ drift, % of the path.
+    pub xyz_pct_without_point_updates: Option<f64>,
     /// Why the filter could not run.
     pub failure: Option<String>,
 }
@@ -122,6 +125,14 @@ pub fn run_odometry(
                     per_frame.iter().map(|&(t, p)| (t + mid, p)).collect();
                 let radial = RadialConsistency::measure(&at_mid, velocity);
                 let run = odometry::run(&EkfParams::default(), &imu, &frames, &scene.rig);
+                let no_points = EkfParams {
+                    point_updates: false,
+                    ..EkfParams::default()
+                };
+                let without = odometry::run(&no_points, &imu, &frames, &scene.rig)
+                    .ok()
+                    .and_then(|r| metrics::evaluate(&r.trajectory, &truth))
+                    .map(|e| e.drift.xyz_pct);
                 let total: usize = frames.iter().map(|f| f.points).sum();
                 let (updates, errors, failure) = match run {
                     Ok(r) => (r.updates, metrics::evaluate(&r.trajectory, &truth), None),
@@ -137,6 +148,7 @@ pub fn run_odometry(
                     radial,
                     updates,
                     errors,
+                    xyz_pct_without_point_updates: without,
                     failure,
                 });
             }
@@ -195,6 +207,10 @@ pub struct OdometrySummary {
     /// Paired DBE − FFT difference of the XYZ drift (% of the path), mean and standard
     /// deviation over seeds (on the DBE row only).
     pub xyz_pct_minus_fft: Option<(f64, f64)>,
+    /// XYZ drift (% of the path) without point updates (mean over the seeds that have it).
+    pub xyz_pct_without_point_updates: f64,
+    /// Point updates applied per sequence run (mean).
+    pub points_applied: f64,
 }
 
 /// Aggregate `rows` per sequence and variant; `dbe`/`fft` name the paired variants.
@@ -260,6 +276,14 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
                 radial_scale: me(&|r| r.radial.scale),
                 radial_rms_slow_fast_mps: [0, 1].map(|i| me(&|r| r.radial.rms_slow_fast_mps[i])),
                 xyz_pct_minus_fft: paired.flatten(),
+                xyz_pct_without_point_updates: mean_std(
+                    &mine
+                        .iter()
+                        .filter_map(|r| r.xyz_pct_without_point_updates)
+                        .collect::<Vec<_>>(),
+                )
+                .map_or(f64::NAN, |x| x.0),
+                points_applied: me(&|r| r.updates.points_applied as f64),
             });
         }
     }

@@ -8,6 +8,8 @@
 //!                 (IMU samples averaged over each interval)
 //! radar update    v_radar = R_irᵀ·(Rᵀ·v + (ω − b_g) × l_ir)           ω × l: the lever arm
 //!                 H = [0, R_irᵀRᵀ, R_irᵀ[Rᵀv]×, 0, R_irᵀ[l_ir]×],  χ² gate on the innovation
+//! point update    v_r = −uᵀ·v_radar for one static point (direction u, radar frame), scalar,
+//!                 H = −uᵀ·H_radar, σ² = σ_f² + (σ⊥/r)²·|v_radar × u|², its own χ² gate
 //! initialisation  the first `init_standstill_s` of IMU data at rest: roll and pitch from the
 //!                 mean specific force, gyro bias from the mean rate, yaw 0, p = v = 0
 //! ```
@@ -15,8 +17,15 @@
 //! `R_ir`, `l_ir` place the radar in the IMU frame (from the base → sensor transforms). The
 //! world frame is gravity-aligned (z up) with the IMU's initial yaw as its x axis. The radar
 //! measurement is the velocity at the frame's mean chirp time; the covariance is the
-//! estimator's. Frames whose estimate is not `ok` or `standstill` give no update.
+//! estimator's. A frame whose points are too few (or too flat) for a velocity still
+//! constrains it along each point's direction: its gated points update the filter one by one
+//! ([`Ekf::update_point`], Doppler-only, as tightly coupled radar-inertial odometry does), so
+//! a walk that ends facing open space, or a standstill with three points in view, is not
+//! left to the IMU alone. The point noise is the ego-velocity stage's model
+//! (`dbe_radar::EgoParams`: a floor plus the cross-range term), and the gate rejects moving
+//! objects against the filter's prediction, not against the other points.
 
+use dbe_radar::EgoParams;
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 use crate::sim::imu::{ImuSample, GRAVITY_MPS2};
@@ -30,6 +39,9 @@ pub const MAX_GYRO_BIAS: f64 = 0.05;
 
 /// The 0.999 quantile of χ² with 3 degrees of freedom: the default innovation gate.
 pub const CHI2_3DOF_999: f64 = 16.266;
+
+/// The 0.999 quantile of χ² with 1 degree of freedom: the default gate of a point update.
+pub const CHI2_1DOF_999: f64 = 10.828;
 
 /// Parameters of the filter. The IMU densities are the usual four (Kalibr / `imu_utils`
 /// units); the defaults are those of the simulated IMU ([`crate::sim::imu::ImuSpec`]) inflated
@@ -56,6 +68,15 @@ pub struct EkfParams {
     pub chi2_gate: f64,
     /// Standard deviation added to each axis of the radar velocity's covariance, m/s.
     pub velocity_sigma_floor: f64,
+    /// Update with single points on frames without a velocity estimate ([`Ekf::update_point`]).
+    pub point_updates: bool,
+    /// Radial-velocity noise floor of one point, m/s.
+    pub point_sigma_mps: f64,
+    /// Cross-range position uncertainty of one point, m (its direction noise is this over the
+    /// range).
+    pub point_cross_range_m: f64,
+    /// Gate of a point update (squared Mahalanobis distance, 1 degree of freedom).
+    pub point_chi2_gate: f64,
 }
 
 impl Default for EkfParams {
@@ -71,6 +92,10 @@ impl Default for EkfParams {
             init_tilt_sigma: 1.0_f64.to_radians(),
             chi2_gate: CHI2_3DOF_999,
             velocity_sigma_floor: 0.0,
+            point_updates: true,
+            point_sigma_mps: f64::from(EgoParams::DEFAULT.sigma_floor_mps),
+            point_cross_range_m: f64::from(EgoParams::DEFAULT.cross_range_sigma_m),
+            point_chi2_gate: CHI2_1DOF_999,
         }
     }
 }
@@ -117,6 +142,17 @@ pub struct RadarVelocity {
     pub velocity: Vector3<f64>,
     /// Its covariance, (m/s)².
     pub covariance: Matrix3<f64>,
+}
+
+/// One static point's Doppler: a radial-velocity measurement along one direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RadialVelocity {
+    /// Unit direction of the point, radar frame.
+    pub direction: Vector3<f64>,
+    /// Its range, m.
+    pub range_m: f64,
+    /// Its radial velocity, m/s (positive receding).
+    pub velocity_mps: f64,
 }
 
 /// The filter's estimate at one instant.
@@ -356,13 +392,48 @@ impl Ekf {
         let (h, jac) = self.predict_radar();
         let floor = self.params.velocity_sigma_floor.powi(2);
         let r = z.covariance + Matrix3::identity() * floor;
-        let innovation = z.velocity - h;
+        self.correct(z.velocity - h, jac, r, self.params.chi2_gate)
+    }
+
+    /// Correct with one static point's radial velocity measured now (call
+    /// [`Self::propagate_to`] first): `v_r = −uᵀ·v_radar`, noise
+    /// `point_sigma² + (point_cross_range·|v_radar × u| / r)²` (module docs), gated at
+    /// `point_chi2_gate`. A point that moves is rejected when the filter's prediction is
+    /// certain enough to tell.
+    pub fn update_point(&mut self, z: &RadialVelocity) -> UpdateOutcome {
+        let (h, jac) = self.predict_radar();
+        let u = z.direction;
+        let p = &self.params;
+        let direction = p.point_cross_range_m * h.cross(&u).norm() / z.range_m;
+        let r2 = p.point_sigma_mps.powi(2) + direction.powi(2);
+        let innovation = z.velocity_mps + u.dot(&h);
+        let jac = -(u.transpose() * jac);
+        if !(innovation.is_finite() && r2 > 0.0 && r2.is_finite()) {
+            return UpdateOutcome::Gated;
+        }
+        self.correct(
+            SVector::<f64, 1>::new(innovation),
+            jac,
+            SMatrix::<f64, 1, 1>::new(r2),
+            p.point_chi2_gate,
+        )
+    }
+
+    /// The EKF correction with innovation `innovation`, Jacobian `jac` and noise `r`, gated at
+    /// `gate` (Joseph form; the error state folded into the nominal one).
+    fn correct<const D: usize>(
+        &mut self,
+        innovation: SVector<f64, D>,
+        jac: SMatrix<f64, D, 15>,
+        r: SMatrix<f64, D, D>,
+        gate: f64,
+    ) -> UpdateOutcome {
         let s = jac * self.cov * jac.transpose() + r;
         let Some(s_inv) = s.try_inverse() else {
             return UpdateOutcome::Gated;
         };
         let d2 = (innovation.transpose() * s_inv * innovation)[(0, 0)];
-        if !(d2 <= self.params.chi2_gate) {
+        if !(d2 <= gate) {
             return UpdateOutcome::Gated;
         }
         let k = self.cov * jac.transpose() * s_inv;

@@ -5,7 +5,8 @@
 //! frame points ──▶ dbe_radar::EgoEstimator ──▶ FrameVelocity (radar frame, mean chirp time)
 //! IMU samples  ──▶ ekf::Ekf::propagate ─┐
 //!                                       ├──▶ base pose at every frame time ──▶ metrics::evaluate
-//! FrameVelocity ─▶ ekf::Ekf::update ────┘
+//! FrameVelocity ─▶ ekf::Ekf::update ────┘   (no estimate: its gated points, one by one,
+//!                                             ekf::Ekf::update_point)
 //! ```
 //!
 //! - [`ekf`]: the filter (IMU propagation, radar ego-velocity update with the lever arm, χ²
@@ -27,10 +28,10 @@ use crate::cloud::PointRecord;
 use crate::io::{StampedPose, Transforms};
 use crate::sim::imu::ImuSample;
 use crate::sim::trajectory::Mount;
-use ekf::{Ekf, EkfError, EkfParams, RadarVelocity, UpdateOutcome};
+use ekf::{Ekf, EkfError, EkfParams, RadarVelocity, RadialVelocity, UpdateOutcome};
 
 /// The ego-velocity of one radar frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct FrameVelocity {
     /// The frame's timestamp, s (the trajectory is written at these times).
     pub frame_time_s: f64,
@@ -40,6 +41,9 @@ pub struct FrameVelocity {
     pub points: usize,
     /// The core's estimate.
     pub ego: EgoVelocity,
+    /// The points the estimate's gate admitted (`EgoParams::admit`), for the filter's point
+    /// updates when the estimate is not usable.
+    pub radials: Vec<RadialVelocity>,
 }
 
 impl FrameVelocity {
@@ -72,11 +76,23 @@ pub fn frame_velocities(
         .iter()
         .map(|&(t, points)| {
             let points: Vec<dbe_radar::Point> = points.iter().map(PointRecord::to_point).collect();
+            let radials = points
+                .iter()
+                .filter_map(|p| {
+                    let (u, r) = ego.params().admit(p)?;
+                    Some(RadialVelocity {
+                        direction: Vector3::new(f64::from(u.x), f64::from(u.y), f64::from(u.z)),
+                        range_m: f64::from(r),
+                        velocity_mps: f64::from(p.velocity_mps),
+                    })
+                })
+                .collect();
             FrameVelocity {
                 frame_time_s: t,
                 measure_time_s: t + mid_frame_s,
                 points: points.len(),
                 ego: ego.estimate(&points),
+                radials,
             }
         })
         .collect())
@@ -250,6 +266,12 @@ pub struct UpdateCounts {
     pub gated: usize,
     /// Frames without a usable estimate (too few points, ill-conditioned).
     pub no_estimate: usize,
+    /// Of those, frames with at least one point update applied.
+    pub point_frames: usize,
+    /// Point updates applied (frames without an estimate).
+    pub points_applied: usize,
+    /// Point updates rejected by their gate.
+    pub points_gated: usize,
     /// Frames before the end of the initial standstill (no update).
     pub during_init: usize,
     /// Frames after the last IMU sample (not in the trajectory).
@@ -324,6 +346,18 @@ pub fn run(
         }
         let Some(z) = f.measurement() else {
             updates.no_estimate += 1;
+            if params.point_updates && !f.radials.is_empty() && f.measure_time_s <= last_imu {
+                advance(&mut ekf, &mut next, f.measure_time_s);
+                let mut applied = 0;
+                for p in &f.radials {
+                    match ekf.update_point(p) {
+                        UpdateOutcome::Applied => applied += 1,
+                        UpdateOutcome::Gated => updates.points_gated += 1,
+                    }
+                }
+                updates.points_applied += applied;
+                updates.point_frames += usize::from(applied > 0);
+            }
             continue;
         };
         if z.time_s > last_imu {
@@ -430,6 +464,7 @@ mod tests {
                 points: 10,
                 status,
             },
+            radials: Vec::new(),
         }
     }
 
