@@ -614,6 +614,29 @@ dbe_status_t dbe_init(uint32_t preset,
 dbe_status_t dbe_set_coupling(dbe_t *handle, const float *coupling, size_t values);
 
 /**
+ * Attach a per-channel gain and phase calibration: `values` = `tx · rx · 2` floats in the
+ * order `[tx][rx][re, im]` (TX in data order, the TDM slots), each channel's factor, which
+ * multiplies its range FFT after the coupling is subtracted (TI's
+ * `compRangeBiasAndRxChanPhase` values, reordered to the TDM slots). Factors must be finite
+ * and non-zero. `values` 0 removes the calibration.
+ *
+ * # Safety
+ * `gains` is valid for `values` floats (or `values` is 0).
+ */
+dbe_status_t dbe_set_channel_gains(dbe_t *handle, const float *gains, size_t values);
+
+/**
+ * Set the range bias, m, subtracted from the range of every point of the frames processed
+ * after it (TI's `compRangeBiasAndRxChanPhase` first value): each point moves along its
+ * direction; one whose range would not stay positive is dropped. 0 (the default) changes
+ * nothing.
+ *
+ * # Safety
+ * `handle` came from `dbe_init` (NULL is an error).
+ */
+dbe_status_t dbe_set_range_bias(dbe_t *handle, float bias_m);
+
+/**
  * Feed one chirp: `iq` holds `chirp_values` int16 (`[rx][sample][I, Q]`, as the ADC
  * delivers them) of TX slot `tx_slot` in loop `loop_index`. Chirps must come in TDM order
  * (loop 0 slot 0, loop 0 slot 1, …); a wrong one is not stored and makes the frame an error.

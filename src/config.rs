@@ -325,6 +325,8 @@ pub enum Param {
     DopplerAgreement,
     /// `CfarParams::window_gate_db`.
     CfarWindowGate,
+    /// The per-channel gain and phase calibration.
+    ChannelGains,
 }
 
 impl Param {
@@ -355,6 +357,7 @@ impl Param {
             Param::DopplerTest => "Doppler test threshold (dB)",
             Param::DopplerAgreement => "Doppler agreement window (bins)",
             Param::CfarWindowGate => "CFAR window gate (dB)",
+            Param::ChannelGains => "channel gain and phase calibration",
         }
     }
 }

@@ -2,15 +2,16 @@
 //!
 //! ```text
 //! push_chirp : TDM order check → per RX: DC removal, window, range FFT (range.rs)
-//!              → − coupling calibration of its cube row → Cube[bin][row][loop]
+//!              → − coupling calibration of its cube row → × channel gain of the row
+//!              → Cube[bin][row][loop]
 //! frame      : all K·TX chirps in order? → Frame (else FrameError)
 //! ```
 //!
 //! The frontend owns what depends on the sensor alone: the waveform, the antenna geometry and
 //! the cube row order derived from it ([`ArrayLayout`]), the range window, and the optional
-//! coupling calibration. A chain is configured from a frontend ([`crate::Dbe::configure`],
-//! [`crate::FftChain::configure`]) and processes the frames it fills; both chains can process
-//! one frame, which is how they are compared.
+//! coupling and channel gain calibrations. A chain is configured from a frontend
+//! ([`crate::Dbe::configure`], [`crate::FftChain::configure`]) and processes the frames it
+//! fills; both chains can process one frame, which is how they are compared.
 
 use num_complex::Complex32;
 
@@ -23,7 +24,8 @@ use crate::window::WindowKind;
 
 const ZERO: Complex32 = Complex32::new(0.0, 0.0);
 
-/// Waveform, geometry, range window and coupling calibration; `push_chirp` and `frame`.
+/// Waveform, geometry, range window, coupling and channel gain calibrations; `push_chirp` and
+/// `frame`.
 ///
 /// Const generics: `N` samples per chirp (= range bins), `K` loops per frame, `TX`, `RX`,
 /// `M = TX·RX` virtual antennas of which `AZ` form the azimuth line.
@@ -89,6 +91,9 @@ pub struct Frontend<
     /// Coupling calibration per cube row (all zero, and unused, when `coupling_on` is false).
     coupling: [[Complex32; N]; M],
     coupling_on: bool,
+    /// Complex gain per cube row (all zero, and unused, when `gains_on` is false).
+    gains: [Complex32; M],
+    gains_on: bool,
     configured: bool,
 }
 
@@ -132,12 +137,14 @@ impl<
             range_window: WindowKind::Rectangular,
             coupling: [[ZERO; N]; M],
             coupling_on: false,
+            gains: [ZERO; M],
+            gains_on: false,
             configured: false,
         }
     }
 
-    /// Validate and configure in place. On error `self` is unchanged. Any coupling
-    /// calibration is removed.
+    /// Validate and configure in place. On error `self` is unchanged. Any coupling or channel
+    /// gain calibration is removed.
     pub fn configure(
         &mut self,
         waveform: Waveform,
@@ -158,6 +165,7 @@ impl<
         self.range = RangeFft::new(range_window);
         self.range_window = range_window;
         self.coupling_on = false;
+        self.gains_on = false;
         self.configured = true;
         Ok(())
     }
@@ -199,6 +207,38 @@ impl<
         }
         self.coupling_on = true;
         Ok(())
+    }
+
+    /// Attach a per-channel gain and phase calibration in data order `[tx][rx]`: every range
+    /// bin of the channel's chirps is multiplied by its factor, after the coupling is
+    /// subtracted (TI's `compRangeBiasAndRxChanPhase`: the factors that make a reflector at
+    /// boresight arrive with one amplitude and phase on every virtual antenna). Factors must be
+    /// finite and non-zero; on error the previous calibration is kept. Without one (the
+    /// default) nothing is multiplied: the array is taken as matched.
+    pub fn set_channel_gains(&mut self, gains: &[[Complex32; RX]; TX]) -> Result<(), ConfigError> {
+        for g in gains.iter().flatten() {
+            if !(g.re.is_finite() && g.im.is_finite()) {
+                return Err(ConfigError::NotFinite(Param::ChannelGains));
+            }
+            if !(g.norm_sqr() > 0.0) {
+                return Err(ConfigError::OutOfRange(Param::ChannelGains));
+            }
+        }
+        for (t, per_rx) in gains.iter().enumerate() {
+            for (r, g) in per_rx.iter().enumerate() {
+                if let Some(dst) = self.gains.get_mut(usize::from(self.layout.row_of[t][r])) {
+                    *dst = *g;
+                }
+            }
+        }
+        self.gains_on = true;
+        Ok(())
+    }
+
+    /// Remove the channel gain calibration (nothing is multiplied again).
+    pub fn clear_channel_gains(&mut self) {
+        self.gains = [ZERO; M];
+        self.gains_on = false;
     }
 
     /// Whether [`Self::configure`] has succeeded (chains refuse an unconfigured frontend).
@@ -272,6 +312,17 @@ impl<
                     }
                 }
             }
+            if self.gains_on {
+                for (l, &row) in rows.iter().enumerate() {
+                    let Some(&g) = self.gains.get(usize::from(row)) else {
+                        continue;
+                    };
+                    for s in lanes.iter_mut() {
+                        let v = Complex32::new(s.re[l], s.im[l]) * g;
+                        (s.re[l], s.im[l]) = (v.re, v.im);
+                    }
+                }
+            }
             cube.store_lanes(rows, k, &lanes);
         }
         #[cfg(target_arch = "arm")]
@@ -283,6 +334,13 @@ impl<
                 if let Some(c) = coupling.and_then(|c| c.get(row)) {
                     for (s, c) in spectrum.iter_mut().zip(c.iter()) {
                         *s -= *c;
+                    }
+                }
+                if self.gains_on {
+                    if let Some(&g) = self.gains.get(row) {
+                        for s in spectrum.iter_mut() {
+                            *s *= g;
+                        }
                     }
                 }
                 cube.store(row, k, &spectrum);

@@ -127,6 +127,31 @@ impl<const P: usize> PointCloud<P> {
         self.stats = FrameStats::default();
     }
 
+    /// Subtract a range bias: every point moves along its direction by `−bias_m` (TI's
+    /// `compRangeBiasAndRxChanPhase` range term, the metres the radar's RF delays add to every
+    /// measured range; the chains' ranges are range bins times the bin size). A point whose
+    /// range would not stay positive is removed and no longer counted in `stats.points`. A
+    /// bias of 0, or one that is not finite, changes nothing.
+    pub fn subtract_range_bias(&mut self, bias_m: f32) {
+        if bias_m == 0.0 || !bias_m.is_finite() {
+            return;
+        }
+        let mut kept = 0;
+        for i in 0..self.len {
+            let mut p = self.points[i];
+            let r = p.position.length();
+            if !(r - bias_m > 0.0) {
+                continue;
+            }
+            p.position *= (r - bias_m) / r;
+            self.points[kept] = p;
+            kept += 1;
+        }
+        let removed = self.len - kept;
+        self.len = kept;
+        self.stats.points = self.stats.points.saturating_sub(removed as u32);
+    }
+
     /// Add `p`, or count it in `point_overflow` when the cloud is full.
     pub(crate) fn push(&mut self, p: Point) {
         if self.len < P {
@@ -151,5 +176,35 @@ pub(crate) fn ratio_db(a: f32, b: f32) -> f32 {
         10.0 * libm::log10f(a / b)
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_range_bias_moves_points_along_their_direction_and_drops_those_it_passes() {
+        let mut cloud = PointCloud::<4>::new();
+        let (far, near) = (Point::at(2.0, 0.6, 0.1), Point::at(0.05, 0.0, 0.0));
+        for p in [far, near].into_iter().flatten() {
+            cloud.push(Point {
+                velocity_mps: 0.5,
+                ..p
+            });
+        }
+        let before = cloud.points()[0].position;
+        cloud.subtract_range_bias(f32::NAN);
+        cloud.subtract_range_bias(0.0);
+        assert_eq!(
+            (cloud.points().len(), cloud.points()[0].position),
+            (2, before)
+        );
+        cloud.subtract_range_bias(0.1);
+        assert_eq!((cloud.points().len(), cloud.stats.points), (1, 1));
+        let p = cloud.points()[0];
+        assert!((p.position.length() - 1.9).abs() < 1e-6, "{p:?}");
+        assert!((p.position.normalize() - before.normalize()).length() < 1e-6);
+        assert_eq!(p.velocity_mps, 0.5);
     }
 }

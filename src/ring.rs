@@ -53,14 +53,16 @@
 //! bin from being split.
 //!
 //! Real arrays: `|c|` is the row's amplitude against the line's, so the split needs the two matched
-//! in gain to a few per cent. The row is fed by a different TX channel than most of the line, and
-//! the frontend calibrates coupling, not per-antenna gain: on elements matched well enough that
-//! `σ_c` stays small, a row 0.7 dB (8 %) weaker than the line splits every clean point at the
-//! horizon, by `±acos(0.92)/(κΔ)` (±7° on a row half a wavelength up). On the TI IWR6843 capture in
-//! `../shared/fixtures` the corner reflector (the only point that reaches the test, printed from
-//! the f64 reference) has `|c|` = 1.05, its row 0.46 dB stronger than the line, and `σ_c` = 0.14
-//! from the elements' uncalibrated spread, so nothing splits there; a board whose row is weaker
-//! could. Check a recording first: a corner reflector must stay one point with the split on.
+//! in gain to a few per cent. The row is fed by a different TX channel than most of the line;
+//! without per-channel gains (`Frontend::set_channel_gains`, a TI `.cfg`'s
+//! `compRangeBiasAndRxChanPhase`) the frontend takes the array as matched: on elements matched well
+//! enough that `σ_c` stays small, a row 0.7 dB (8 %) weaker than the line splits every clean point
+//! at the horizon, by `±acos(0.92)/(κΔ)` (±7° on a row half a wavelength up). On the TI IWR6843
+//! capture in `../shared/fixtures` the corner reflector (the only point that reaches the test,
+//! printed from the f64 reference) has `|c|` = 1.05, its row 0.46 dB stronger than the line, and
+//! `σ_c` = 0.14 from the elements' uncalibrated spread, so nothing splits there; a board whose row
+//! is weaker could. Check a recording first: a corner reflector must stay one point with the split
+//! on.
 
 use num_complex::Complex32;
 

@@ -41,10 +41,10 @@ fn coloradar_buffers() {
     );
     // Points: P · 32 + length + 7 statistics counters.
     assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 28));
-    // Frontend: optional coupling table M·N·8, range window N·4, and small configuration
-    // (waveform, geometry, array layout).
-    let frontend_tables = 12 * 128 * 8 + 128 * 4;
-    assert_eq!(frontend_tables, 12_800);
+    // Frontend: optional coupling table M·N·8, range window N·4, channel gains M·8, and small
+    // configuration (waveform, geometry, array layout).
+    let frontend_tables = 12 * 128 * 8 + 128 * 4 + 12 * 8;
+    assert_eq!(frontend_tables, 12_896);
     let frontend = size_of::<p::Frontend>();
     assert!(
         frontend >= frontend_tables && frontend <= frontend_tables + 512,
@@ -75,8 +75,8 @@ fn iwr6843_buffers() {
         round8(ws - 128 * 12 + list + 4 + 128 * 4)
     );
     assert_eq!(size_of::<p::PointCloud>(), round8(256 * 32 + W + 28));
-    let frontend_tables = 12 * 256 * 8 + 256 * 4;
-    assert_eq!(frontend_tables, 25_600);
+    let frontend_tables = 12 * 256 * 8 + 256 * 4 + 12 * 8;
+    assert_eq!(frontend_tables, 25_696);
     let frontend = size_of::<p::Frontend>();
     assert!(frontend >= frontend_tables && frontend <= frontend_tables + 512);
     let tables = 188 * 12 * 8 + 101 * 12 * 8 + 64 * 4 + (188 + 101) * 4;

@@ -132,6 +132,27 @@ int main(void) {
     coupling[5] = 0.0f;
     EXPECT(dbe_set_coupling(radar, coupling, 3 * 4 * 128 * 2), DBE_OK);
 
+    /* Channel gains: one complex factor per channel, finite and non-zero; none removes them. */
+    float gains[3 * 4 * 2];
+    for (int i = 0; i < 3 * 4; i++) {
+        gains[2 * i] = 1.0f;
+        gains[2 * i + 1] = 0.0f;
+    }
+    EXPECT(dbe_set_channel_gains(radar, gains, 3 * 4 * 2 - 2), DBE_ERR_OUT_OF_RANGE);
+    EXPECT(dbe_set_channel_gains(radar, NULL, 3 * 4 * 2), DBE_ERR_NULL_POINTER);
+    gains[6] = NAN;
+    EXPECT(dbe_set_channel_gains(radar, gains, 3 * 4 * 2), DBE_ERR_NOT_FINITE);
+    gains[6] = 0.0f;
+    EXPECT(dbe_set_channel_gains(radar, gains, 3 * 4 * 2), DBE_ERR_OUT_OF_RANGE);
+    gains[7] = -0.5f;
+    EXPECT(dbe_set_channel_gains(radar, gains, 3 * 4 * 2), DBE_OK);
+    EXPECT(dbe_set_channel_gains(radar, NULL, 0), DBE_OK);
+
+    /* Range bias: any finite value. */
+    EXPECT(dbe_set_range_bias(radar, NAN), DBE_ERR_NOT_FINITE);
+    EXPECT(dbe_set_range_bias(radar, 0.07f), DBE_OK);
+    EXPECT(dbe_set_range_bias(NULL, 0.07f), DBE_ERR_NULL_POINTER);
+
     printf("ok %d checks\n", checks);
     return 0;
 }

@@ -383,6 +383,8 @@ struct State<
     ego: EgoEstimator<DET>,
     /// The cube over the caller's buffer (its lifetime is the caller's promise).
     cube: Cube<'static, N, K, M>,
+    /// Subtracted from every point's range (`dbe_set_range_bias`), m.
+    range_bias_m: f32,
 }
 
 /// The state block: a header that identifies it, then the preset's state.
@@ -434,6 +436,8 @@ trait Radar {
     fn points(&self) -> &[dbe_radar::points::Point];
     fn ego(&mut self) -> dbe_radar::ego::EgoVelocity;
     fn set_coupling(&mut self, values: &[f32]) -> dbe_status_t;
+    fn set_channel_gains(&mut self, values: &[f32]) -> dbe_status_t;
+    fn set_range_bias(&mut self, bias_m: f32) -> dbe_status_t;
 }
 
 impl<
@@ -471,6 +475,7 @@ impl<
             Ok(frame) => {
                 use dbe_radar::Chain;
                 self.chain.process(&frame, &mut self.work, &mut self.cloud);
+                self.cloud.subtract_range_bias(self.range_bias_m);
                 DBE_OK
             }
             Err(e) => {
@@ -522,6 +527,35 @@ impl<
             Err(e) => config_status(e).0,
         }
     }
+
+    fn set_range_bias(&mut self, bias_m: f32) -> dbe_status_t {
+        if !bias_m.is_finite() {
+            return DBE_ERR_NOT_FINITE;
+        }
+        self.range_bias_m = bias_m;
+        DBE_OK
+    }
+
+    fn set_channel_gains(&mut self, values: &[f32]) -> dbe_status_t {
+        // values: [tx][rx][re, im], or none to remove the calibration.
+        if values.is_empty() {
+            self.frontend.clear_channel_gains();
+            return DBE_OK;
+        }
+        if values.len() != TX * RX * 2 {
+            return DBE_ERR_OUT_OF_RANGE;
+        }
+        let gains: [[dbe_radar::Complex32; RX]; TX] = core::array::from_fn(|t| {
+            core::array::from_fn(|r| {
+                let i = 2 * (t * RX + r);
+                dbe_radar::Complex32::new(values[i], values[i + 1])
+            })
+        });
+        match self.frontend.set_channel_gains(&gains) {
+            Ok(()) => DBE_OK,
+            Err(e) => config_status(e).0,
+        }
+    }
 }
 
 fn frame_status(e: FrameError) -> dbe_status_t {
@@ -568,6 +602,7 @@ fn param_name(p: dbe_radar::config::Param) -> &'static [u8] {
         DopplerTest => b"params.doppler_test_db\0",
         DopplerAgreement => b"params.doppler_agreement_bins\0",
         CfarWindowGate => b"params.cfar_window_gate_db\0",
+        ChannelGains => b"channel_gains\0",
         _ => b"params\0",
     }
 }
@@ -837,6 +872,7 @@ unsafe fn init_state<
         addr_of_mut!((*s).cloud).write(PointCloud::new());
         addr_of_mut!((*s).ego).write(EgoEstimator::unconfigured());
         addr_of_mut!((*s).cube).write(Cube::new(&mut *cube));
+        addr_of_mut!((*s).range_bias_m).write(0.0);
         let state = &mut *s;
         state
             .frontend
@@ -1092,6 +1128,46 @@ pub unsafe extern "C" fn dbe_set_coupling(
         unsafe { core::slice::from_raw_parts(coupling, values) }
     };
     r.set_coupling(v)
+}
+
+/// Attach a per-channel gain and phase calibration: `values` = `tx · rx · 2` floats in the
+/// order `[tx][rx][re, im]` (TX in data order, the TDM slots), each channel's factor, which
+/// multiplies its range FFT after the coupling is subtracted (TI's
+/// `compRangeBiasAndRxChanPhase` values, reordered to the TDM slots). Factors must be finite
+/// and non-zero. `values` 0 removes the calibration.
+///
+/// # Safety
+/// `gains` is valid for `values` floats (or `values` is 0).
+#[no_mangle]
+pub unsafe extern "C" fn dbe_set_channel_gains(
+    handle: *mut dbe_t,
+    gains: *const f32,
+    values: usize,
+) -> dbe_status_t {
+    let r = radar_or_return!(handle);
+    if values > 0 && gains.is_null() {
+        return DBE_ERR_NULL_POINTER;
+    }
+    let v: &[f32] = if values == 0 {
+        &[]
+    } else {
+        // SAFETY: non-null, the caller guarantees `values` floats.
+        unsafe { core::slice::from_raw_parts(gains, values) }
+    };
+    r.set_channel_gains(v)
+}
+
+/// Set the range bias, m, subtracted from the range of every point of the frames processed
+/// after it (TI's `compRangeBiasAndRxChanPhase` first value): each point moves along its
+/// direction; one whose range would not stay positive is dropped. 0 (the default) changes
+/// nothing.
+///
+/// # Safety
+/// `handle` came from `dbe_init` (NULL is an error).
+#[no_mangle]
+pub unsafe extern "C" fn dbe_set_range_bias(handle: *mut dbe_t, bias_m: f32) -> dbe_status_t {
+    let r = radar_or_return!(handle);
+    r.set_range_bias(bias_m)
 }
 
 /// Feed one chirp: `iq` holds `chirp_values` int16 (`[rx][sample][I, Q]`, as the ADC

@@ -189,6 +189,14 @@ pub enum CoreRunError {
         /// RX positions given.
         rx: usize,
     },
+    /// The channel gain table does not hold `tx · rx` values.
+    #[error("channel gain calibration holds {found} values, {expected} expected ([tx][rx])")]
+    ChannelGainsSize {
+        /// Values expected.
+        expected: usize,
+        /// Values found.
+        found: usize,
+    },
     /// The coupling table does not hold `tx · rx · range_bins` values.
     #[error(
         "coupling calibration holds {found} values, {expected} expected ([tx][rx][range bin])"
@@ -388,6 +396,8 @@ struct Engine<
     work: Box<C::Workspace>,
     cloud: Box<PointCloud<P>>,
     chirp: Box<[[[i16; 2]; N]; RX]>,
+    /// `SensorConfig::range_bias_m`, subtracted from every point's range.
+    range_bias_m: f32,
 }
 
 impl<
@@ -440,6 +450,17 @@ impl<
             });
             frontend.set_coupling(&per_tx).map_err(config)?;
         }
+        if let Some(g) = &sensor.channel_gains {
+            if g.len() != TX * RX {
+                return Err(CoreRunError::ChannelGainsSize {
+                    expected: TX * RX,
+                    found: g.len(),
+                });
+            }
+            let per_tx: [[Complex32; RX]; TX] =
+                core::array::from_fn(|t| core::array::from_fn(|r| g[t * RX + r]));
+            frontend.set_channel_gains(&per_tx).map_err(config)?;
+        }
         let chain = C::build(&frontend, &params).map_err(config)?;
         let storage: Box<CubeStorage<N, K, M>> =
             match vec![[[[0; 2]; K]; M]; N].into_boxed_slice().try_into() {
@@ -454,6 +475,7 @@ impl<
             work: C::workspace(),
             cloud: Box::new(PointCloud::new()),
             chirp: Box::new([[[0; 2]; N]; RX]),
+            range_bias_m: sensor.range_bias_m as f32,
         }))
     }
 
@@ -489,6 +511,7 @@ impl<
         let t_detect = t.elapsed();
         let t = Instant::now();
         self.chain.points(&checked, &mut self.work, &mut self.cloud);
+        self.cloud.subtract_range_bias(self.range_bias_m);
         let t_points = t.elapsed();
         let times = StageTimes {
             names: C::STAGES,

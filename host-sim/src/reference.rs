@@ -15,7 +15,8 @@
 //! - **Range (§3.0).** Per chirp and RX: subtract the complex mean of the `N` samples, multiply
 //!   by the *symmetric* range window (`w[n]`, period `N − 1`), `N`-point FFT, unnormalised,
 //!   `X[b] = Σ x[n]·exp(−j·2π·b·n/N)`. With a coupling table, subtract `c[t][r][b]` for the
-//!   bins `b` it covers.
+//!   bins `b` it covers; with channel gains, then multiply every bin by `g[t][r]`. A range
+//!   bias (`SensorConfig::range_bias_m`) moves every point along its direction at the end.
 //! - **Array.** Virtual antenna `(t, r)` sits at `az = tx_az[t] + rx_az[r]`,
 //!   `el = tx_el[t] + rx_el[r]` (half-wavelength units at `F_design`), TDM slot `t`. The
 //!   azimuth line is the elements at the lowest elevation, sorted by azimuth; it must be
@@ -154,6 +155,14 @@ pub enum ReferenceError {
         name: &'static str,
         /// What is wrong with it.
         reason: &'static str,
+    },
+    /// The channel gain table does not have `tx · rx` finite, non-zero entries.
+    #[error("channel gain calibration needs {expected} finite, non-zero values ([tx][rx]); it has {found} values")]
+    ChannelGains {
+        /// Values expected.
+        expected: usize,
+        /// Values found.
+        found: usize,
     },
     /// The coupling table does not have `tx · rx · range_bins` entries or covers too many bins.
     #[error("coupling calibration has {found} values, expected {expected} ([tx][rx][range bin], at most the chirp's samples per table)")]
@@ -1307,6 +1316,21 @@ pub fn process_frame_with(
     for (det, margin) in found.iter_mut().zip(margins) {
         det.decision_margin = margin.0;
     }
+    // The range bias (`SensorConfig::range_bias_m`, TI's): every point moves along its
+    // direction; one it would carry through the radar is dropped (the core's
+    // `PointCloud::subtract_range_bias`).
+    let bias = sensor.range_bias_m;
+    if bias != 0.0 && bias.is_finite() {
+        points.retain_mut(|p| {
+            let r = (p.x * p.x + p.y * p.y + p.z * p.z).sqrt();
+            let keep = r - bias > 0.0;
+            if keep {
+                let s = (r - bias) / r;
+                (p.x, p.y, p.z) = (p.x * s, p.y * s, p.z * s);
+            }
+            keep
+        });
+    }
     Ok(ReferenceOutput {
         ra_map,
         detections: found,
@@ -1343,6 +1367,22 @@ fn range_cube(
         }
         None => None,
     };
+    let gains = match &sensor.channel_gains {
+        Some(g) => {
+            let expected = sensor.num_tx * sensor.num_rx;
+            let valid = |v: &num_complex::Complex32| {
+                v.re.is_finite() && v.im.is_finite() && v.norm_sqr() > 0.0
+            };
+            if g.len() != expected || !g.iter().all(valid) {
+                return Err(ReferenceError::ChannelGains {
+                    expected,
+                    found: g.len(),
+                });
+            }
+            Some(g)
+        }
+        None => None,
+    };
     let m = setup.array.len();
     let mut cube = vec![DMatrix::<Complex64>::zeros(m, k); n];
     let mut buf = vec![Complex64::new(0.0, 0.0); n];
@@ -1365,6 +1405,13 @@ fn range_cube(
                     let table = &c.data[(t * sensor.num_rx + r) * c.range_bins..][..c.range_bins];
                     for (v, cv) in buf.iter_mut().zip(table) {
                         *v -= Complex64::new(f64::from(cv.re), f64::from(cv.im));
+                    }
+                }
+                if let Some(g) = gains {
+                    let g = g[t * sensor.num_rx + r];
+                    let g = Complex64::new(f64::from(g.re), f64::from(g.im));
+                    for v in buf.iter_mut() {
+                        *v *= g;
                     }
                 }
                 if precision == CubePrecision::BlockFloat16 {

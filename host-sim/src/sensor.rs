@@ -33,6 +33,13 @@ pub struct SensorConfig {
     pub f_design_hz: f64,
     /// Coupling calibration, when present.
     pub coupling: Option<Coupling>,
+    /// Per-channel gain and phase calibration, `[tx][rx]` in data order (`tx · rx` factors
+    /// multiplying each channel's range spectrum after the coupling; TI's
+    /// `compRangeBiasAndRxChanPhase`), when present.
+    pub channel_gains: Option<Vec<Complex32>>,
+    /// Range bias, m: subtracted from every point's range (TI's `compRangeBiasAndRxChanPhase`
+    /// first value; `dbe_radar::PointCloud::subtract_range_bias`); 0 when unknown.
+    pub range_bias_m: f64,
     /// Time from the ramp start to the first ADC sample (`adc_start_time`), s; 0 when the
     /// calibration omits it (spec §2).
     pub adc_start_time_s: f64,
@@ -52,6 +59,8 @@ impl SensorConfig {
             rx: g.rx.to_vec(),
             f_design_hz: g.f_design_hz,
             coupling: None,
+            channel_gains: None,
+            range_bias_m: 0.0,
             adc_start_time_s: 0.0,
         }
     }
@@ -75,6 +84,8 @@ impl SensorConfig {
             rx: g.rx.to_vec(),
             f_design_hz: g.f_design_hz,
             coupling: None,
+            channel_gains: None,
+            range_bias_m: 0.0,
             adc_start_time_s: 0.0,
         }
     }

@@ -681,6 +681,67 @@ fn a_ti_cfg_equivalent_to_the_calibration_gives_the_same_points() -> TestResult 
     Ok(())
 }
 
+/// A `.cfg`'s `compRangeBiasAndRxChanPhase` reaches the points: one common phase on every
+/// channel (a factor j) changes no angle or Doppler, and the range bias moves every point
+/// towards the radar by itself; `run.json` records both.
+#[test]
+fn a_ti_cfg_s_range_bias_and_channel_factors_reach_the_points() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let seq = simulated(dir.path(), "moving_sensor", "2");
+    let base = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/coloradar_awr1843.cfg"),
+    )?;
+    let (plain, comp) = (dir.path().join("plain.cfg"), dir.path().join("comp.cfg"));
+    std::fs::write(&plain, &base)?;
+    let line = format!("compRangeBiasAndRxChanPhase 0.05{}", " 0 1".repeat(12));
+    std::fs::write(&comp, base.replace("lowPower 0 0", &line))?;
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    for (cfg, out) in [(&plain, &a), (&comp, &b)] {
+        ok(&[
+            "process",
+            s(&seq),
+            "--out",
+            s(out),
+            "--format",
+            "csv",
+            "--calib",
+            s(cfg),
+            "--board",
+            "awr1843boost",
+        ]);
+    }
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(b.join("run.json"))?)?;
+    assert_eq!(run["sensor"]["range_bias_m"], 0.05);
+    assert_eq!(
+        run["sensor"]["channel_gains"][11],
+        serde_json::json!([0.0, 1.0])
+    );
+    let mut points = 0;
+    for i in 0..2 {
+        let name = format!("csv/frame_{i}.csv");
+        let pa = host_sim::io::read_csv(&a.join(&name))?;
+        let pb = host_sim::io::read_csv(&b.join(&name))?;
+        assert_eq!(pa.len(), pb.len(), "frame {i}");
+        for (x, y) in pa.iter().zip(&pb) {
+            assert_eq!(
+                (x.range_bin, x.azimuth_bin, x.elevation_bin, x.doppler_bin),
+                (y.range_bin, y.azimuth_bin, y.elevation_bin, y.doppler_bin)
+            );
+            let (rx, ry) = (
+                (x.x * x.x + x.y * x.y + x.z * x.z).sqrt(),
+                (y.x * y.x + y.y * y.y + y.z * y.z).sqrt(),
+            );
+            // f32 positions, and covariances of the rotated data summed in another order.
+            assert!((rx - 0.05 - ry).abs() < 5e-4, "frame {i}: {rx} → {ry}");
+            assert!((x.doppler - y.doppler).abs() < 1e-3, "frame {i}");
+            points += 1;
+        }
+    }
+    assert!(points > 0, "no points to compare");
+    Ok(())
+}
+
 /// Errors quote file names and contents with their control characters escaped (no terminal
 /// escape sequence reaches the user's terminal, the error stays one line), and a calibration
 /// the core refuses is named, its reason printed once.

@@ -55,15 +55,15 @@ fn run_both(
     Ok((core, reference))
 }
 
-/// The reference (and so the core) puts one point per target where physics says: the
-/// nearest range bin or its neighbour (one bin), azimuth and elevation within one grid step
-/// of the true direction (the truth lies between two grid bins), Doppler at the nearest bin.
-fn assert_targets_found(
+/// The point that sits where physics puts `t`: the nearest range bin or its neighbour (one
+/// bin), azimuth and elevation within one grid step of the true direction (the truth lies
+/// between two grid bins); `None` if there is none.
+fn point_of<'p>(
     sensor: &SensorConfig,
     params: &Params,
-    points: &[PointRecord],
-    targets: &[Target],
-) {
+    points: &'p [PointRecord],
+    t: &Target,
+) -> Option<&'p PointRecord> {
     let d = derived(sensor);
     let frame_time = sensor.loops as f64 * d.t_loop;
     let (naz, nel) = (
@@ -74,25 +74,39 @@ fn assert_targets_found(
         f64::from(params.azimuth_span_deg.1 - params.azimuth_span_deg.0) / (naz - 1) as f64;
     let el_step =
         f64::from(params.elevation_span_deg.1 - params.elevation_span_deg.0) / (nel - 1) as f64;
+    let range_mid = t.range() + t.radial_velocity * frame_time / 2.0;
+    let (mu, nu) = t.direction();
+    let (az_true, el_true) = (mu.asin().to_degrees(), nu.asin().to_degrees());
+    points.iter().find(|p| {
+        let range = f64::from(p.range_bin) * d.range_bin;
+        let az = grid_deg(params.azimuth_span_deg, naz, p.azimuth_bin);
+        let el = grid_deg(params.elevation_span_deg, nel, p.elevation_bin);
+        (range - range_mid).abs() <= d.range_bin
+            && (az - az_true).abs() < az_step
+            && (el - el_true).abs() < el_step
+    })
+}
+
+/// The reference (and so the core) puts one point per target where physics says
+/// ([`point_of`]), its Doppler at the nearest bin.
+fn assert_targets_found(
+    sensor: &SensorConfig,
+    params: &Params,
+    points: &[PointRecord],
+    targets: &[Target],
+) {
+    let d = derived(sensor);
     for t in targets {
-        let range_mid = t.range() + t.radial_velocity * frame_time / 2.0;
-        let (mu, nu) = t.direction();
-        let (az_true, el_true) = (mu.asin().to_degrees(), nu.asin().to_degrees());
         // The grid estimate lies within half a bin of the truth plus the slow-time peak's
         // noise (4σ < 0.08 bin at these SNRs over ≥ 8 antennas and ≥ 32 loops): the nearest
         // bin, or its neighbour when the truth is within 0.08 bin of their midpoint.
         let doppler_true = t.radial_velocity / d.doppler_bin;
-        let hit = points.iter().find(|p| {
-            let range = f64::from(p.range_bin) * d.range_bin;
-            let az = grid_deg(params.azimuth_span_deg, naz, p.azimuth_bin);
-            let el = grid_deg(params.elevation_span_deg, nel, p.elevation_bin);
-            (range - range_mid).abs() <= d.range_bin
-                && (az - az_true).abs() < az_step
-                && (el - el_true).abs() < el_step
-        });
-        let Some(p) = hit else {
+        let Some(p) = point_of(sensor, params, points, t) else {
+            let (mu, nu) = t.direction();
             panic!(
-                "no point for {t:?} (μ-angle {az_true:.2}°, ν-angle {el_true:.2}°) in {points:#?}"
+                "no point for {t:?} (μ-angle {:.2}°, ν-angle {:.2}°) in {points:#?}",
+                mu.asin().to_degrees(),
+                nu.asin().to_degrees()
             );
         };
         assert!(
@@ -411,6 +425,105 @@ fn coupling_table_cancels_a_static_return_in_core_and_reference() -> TestResult 
         .copied()
         .fold(0.0, f64::max);
     assert!(ref_peak < 1e-3 * f64::from(peak_row(&core_plain)));
+    Ok(())
+}
+
+#[test]
+fn channel_gains_and_range_bias_calibrate_core_and_reference_alike() -> TestResult {
+    // An uncalibrated board: every (tx, rx) channel arrives with its own gain and phase (RX
+    // phases as on the TI capture, TX phases of tens of degrees, gains within ±1.5 dB),
+    // applied to the ADC samples. The channel gains that undo them (the inverse factors, what
+    // TI's `compRangeBiasAndRxChanPhase` holds) put every target where physics says in both
+    // implementations; without them the elevation row's 25° phase error moves elevations by
+    // 25°/180° of a unit of ν (about 8°, 16 grid steps).
+    let mut sensor = SensorConfig::coloradar();
+    let params = Params::defaults(sensor.samples);
+    let targets = four_targets();
+    let clean = synth_frame(&sensor, &targets, 10.0, 1);
+    let (tx_deg, tx_db) = ([0.0, 25.0, -20.0], [0.0, -0.8, 0.6]);
+    let (rx_deg, rx_db) = ([0.0, -4.0, 0.0, 17.0], [0.0, -1.0, 0.5, 1.5]);
+    let error = |t: usize, r: usize| {
+        let db: f64 = tx_db[t] + rx_db[r];
+        let deg: f64 = tx_deg[t] + rx_deg[r];
+        num_complex::Complex64::from_polar(10f64.powf(db / 20.0), deg.to_radians())
+    };
+    let mut frame = clean.clone();
+    for k in 0..sensor.loops {
+        for t in 0..sensor.num_tx {
+            for r in 0..sensor.num_rx {
+                let start = frame.index(k, t, r, 0);
+                for s in &mut frame.data[start..start + sensor.samples] {
+                    let v =
+                        num_complex::Complex64::new(f64::from(s[0]), f64::from(s[1])) * error(t, r);
+                    *s = [v.re.round() as i16, v.im.round() as i16];
+                }
+            }
+        }
+    }
+
+    let (uncalibrated, _) = run_both(&sensor, &params, &frame, &ReferenceOptions::CORE_CONTRACT)?;
+    let lost = targets
+        .iter()
+        .filter(|t| point_of(&sensor, &params, &uncalibrated.points, t).is_none())
+        .count();
+    eprintln!("{lost} of 4 targets lost without calibration");
+    assert!(lost >= 3, "only {lost} targets lost without calibration");
+
+    let gains: Vec<Complex32> = (0..sensor.num_tx * sensor.num_rx)
+        .map(|i| {
+            let g = error(i / sensor.num_rx, i % sensor.num_rx).inv();
+            Complex32::new(g.re as f32, g.im as f32)
+        })
+        .collect();
+    sensor.channel_gains = Some(gains);
+    let report = Validator::new(&sensor, params)?.check(&frame)?;
+    assert!(
+        report.agreement.is_match(),
+        "{}",
+        format_table(std::slice::from_ref(&report))
+    );
+    let (core, reference) = run_both(&sensor, &params, &frame, &ReferenceOptions::CORE_CONTRACT)?;
+    assert_targets_found(&sensor, &params, &reference.points, &targets);
+    assert_targets_found(&sensor, &params, &core.points, &targets);
+
+    // The range bias moves every point of both along its direction, by the bias.
+    sensor.range_bias_m = 0.07;
+    let report = Validator::new(&sensor, params)?.check(&frame)?;
+    assert!(report.agreement.is_match());
+    let (core_b, reference_b) =
+        run_both(&sensor, &params, &frame, &ReferenceOptions::CORE_CONTRACT)?;
+    let norm = |p: &PointRecord| (p.x * p.x + p.y * p.y + p.z * p.z).sqrt();
+    for (before, after) in [
+        (&core.points, &core_b.points),
+        (&reference.points, &reference_b.points),
+    ] {
+        assert_eq!(before.len(), after.len());
+        for (a, b) in before.iter().zip(after.iter()) {
+            // f32 core positions: a few ulps of a 10 m range.
+            assert!((norm(a) - 0.07 - norm(b)).abs() < 1e-5, "{a:?} → {b:?}");
+            assert!((a.x * b.y - a.y * b.x).abs() < 1e-4, "{a:?} → {b:?}");
+        }
+    }
+    sensor.range_bias_m = 0.0;
+
+    // Factors that are not finite or zero are refused by both, naming the table.
+    sensor.channel_gains = Some(vec![Complex32::new(0.0, 0.0); 12]);
+    let core_err = CoreRunner::new(&sensor, params)
+        .err()
+        .ok_or("zero gain accepted")?;
+    assert!(core_err.to_string().contains("channel gain"), "{core_err}");
+    let ref_err = reference::process_frame_with(
+        &frame,
+        &sensor,
+        &params,
+        188,
+        101,
+        128,
+        &ReferenceOptions::CORE_CONTRACT,
+    )
+    .err()
+    .ok_or("zero gain accepted by the reference")?;
+    assert!(ref_err.to_string().contains("channel gain"), "{ref_err}");
     Ok(())
 }
 

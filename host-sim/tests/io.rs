@@ -116,6 +116,8 @@ fn coloradar_calib_fixture_loads() -> TestResult {
     assert_eq!(
         SensorConfig {
             coupling: None,
+            channel_gains: None,
+            range_bias_m: 0.0,
             ..s.clone()
         },
         SensorConfig::coloradar()

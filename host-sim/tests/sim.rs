@@ -342,6 +342,8 @@ fn rendering_matches_the_literal_formula_with_rounding_and_clipping() {
         rx: vec![(0.0, 0.0), (1.13, 0.0), (2.2, -0.3)],
         f_design_hz: 60.0e9,
         coupling: None,
+        channel_gains: None,
+        range_bias_m: 0.0,
         adc_start_time_s: 4.0e-6,
     };
     assert_matches_oracle(&odd, &scatterers[..4], "odd sensor");

@@ -124,3 +124,54 @@ fn setups_the_chains_cannot_run_are_refused_naming_the_line() -> TestResult {
     assert!(e.to_string().contains("2-D virtual array"), "{e}");
     Ok(())
 }
+
+#[test]
+fn comp_range_bias_and_rx_chan_phase_gives_the_bias_and_the_channel_gains() -> TestResult {
+    let base = std::fs::read_to_string(coloradar_cfg())?;
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("comp.cfg");
+    // 12 pairs as TI's demo prints them: virtual antenna i = slot·4 + rx has (Re, Im) =
+    // (1 − i/32, i/64); then one pair more than this setup has, which is ignored.
+    let pairs: Vec<String> = (0..13)
+        .map(|i| format!("{} {}", 1.0 - f64::from(i) / 32.0, f64::from(i) / 64.0))
+        .collect();
+    let line = format!("compRangeBiasAndRxChanPhase 0.07 {}", pairs.join(" "));
+    std::fs::write(
+        &path,
+        base.replace("lowPower 0 0", &format!("{line}\nlowPower 0 0")),
+    )?;
+    let s = load_ti_cfg(&path, Board::Awr1843boost)?;
+    assert_eq!(s.range_bias_m, 0.07);
+    let gains = s.channel_gains.ok_or("no channel gains")?;
+    assert_eq!(gains.len(), 12);
+    for (i, g) in gains.iter().enumerate() {
+        let (re, im) = (1.0 - i as f32 / 32.0, i as f32 / 64.0);
+        assert_eq!((g.re, g.im), (re, im), "virtual antenna {i}");
+    }
+
+    // The identity (TI's default line) is no calibration at all.
+    let identity = format!("compRangeBiasAndRxChanPhase 0.0{}", " 1 0".repeat(12));
+    std::fs::write(&path, base.replace("lowPower 0 0", &identity))?;
+    let s = load_ti_cfg(&path, Board::Awr1843boost)?;
+    assert_eq!((s.range_bias_m, s.channel_gains), (0.0, None));
+
+    // Too few values, or a zero factor, are refused naming the line.
+    for (text, expected) in [
+        (
+            format!("compRangeBiasAndRxChanPhase 0.0{}", " 1 0".repeat(11)),
+            "for each of the 12 virtual antennas",
+        ),
+        (
+            format!("compRangeBiasAndRxChanPhase 0.0{} 0 0", " 1 0".repeat(11)),
+            "virtual antenna 11 (TX slot 2, RX 3) is 0",
+        ),
+    ] {
+        std::fs::write(&path, base.replace("lowPower 0 0", &text))?;
+        let e = load_ti_cfg(&path, Board::Awr1843boost)
+            .err()
+            .ok_or_else(|| format!("{text}: accepted"))?
+            .to_string();
+        assert!(e.contains("comp.cfg") && e.contains(expected), "{e}");
+    }
+    Ok(())
+}

@@ -250,6 +250,11 @@ fn run_record(
             "rx": opened.sensor.num_rx,
             "preset": Preset::for_sensor(&opened.sensor).map(|p| p.name()).ok(),
             "elevation_measured": opened.sensor.measures_elevation(),
+            "coupling_calibrated": opened.sensor.coupling.is_some(),
+            "channel_gains": opened.sensor.channel_gains.as_ref().map(|g| {
+                g.iter().map(|v| [v.re, v.im]).collect::<Vec<_>>()
+            }),
+            "range_bias_m": opened.sensor.range_bias_m,
             "elevation": if opened.sensor.measures_elevation() {
                 "measured (the array has an elevation row)"
             } else {

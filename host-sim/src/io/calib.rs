@@ -621,6 +621,8 @@ pub fn load_calib(dir: &Path) -> Result<SensorConfig, IoError> {
         rx: a.rx,
         f_design_hz: a.f_design_hz,
         coupling,
+        channel_gains: None,
+        range_bias_m: 0.0,
         adc_start_time_s: w.adc_start_time_s.unwrap_or(0.0),
     };
     check_sensor(&wpath, &sensor)?;

@@ -8,12 +8,19 @@
 //! | `profileCfg id f0 idle adcStart rampEnd txPwr txPhase slope txStart samples fs …` | GHz, µs, MHz/µs, ksps | waveform, samples, ADC start time |
 //! | `chirpCfg start end profile fVar slopeVar idleVar adcVar txMask` | one TX bit per chirp | the TDM order: slot `t` = the TX of chirp `chirpStart + t` |
 //! | `frameCfg chirpStart chirpEnd loops …` | chirps and loops | TX slots per loop, loops per frame |
+//! | `compRangeBiasAndRxChanPhase bias re im …` | range bias (m), one (Re, Im) factor per virtual antenna | `range_bias_m`, `channel_gains` (none when every factor is 1) |
 //!
 //! Lines starting with `%` are comments; other commands are ignored. What the chains cannot run
 //! is an error naming the line: several profiles, a chirp without a `chirpCfg`, a chirp with no
 //! or several TX (simultaneous transmission / BPM), a TX used twice in a loop or not enabled,
 //! chirp variations, real ADC output. The board gives the antenna positions (half-wavelength
 //! units) and the frequency they are measured at.
+//!
+//! `compRangeBiasAndRxChanPhase` is read in the order TI's demo prints it after
+//! `measureRangeBiasAndRxChanPhase` and applies it: the radar cube's virtual antennas, TX in
+//! chirp (TDM slot) order, the enabled RX in ascending order, `tx·rx + r`; values past the
+//! configured antennas (the demo always writes all of them) are ignored. A pair that is 0 is an
+//! error: it would erase its channel.
 
 use std::path::Path;
 
@@ -135,6 +142,7 @@ pub fn load_ti_cfg(path: &Path, board: Board) -> Result<SensorConfig, IoError> {
     let mut profile: Option<(usize, Vec<f64>)> = None;
     let mut chirps: Vec<(usize, usize, usize, usize, Vec<f64>)> = Vec::new(); // line, start, end, mask, vars
     let mut frame: Option<(usize, usize, usize, usize)> = None; // line, start, end, loops
+    let mut comp: Option<(usize, Vec<f64>)> = None; // line, values
     for (line, content) in content_lines(&text.replace('%', "#")) {
         let (cmd, rest) = content
             .split_once(char::is_whitespace)
@@ -185,6 +193,9 @@ pub fn load_ti_cfg(path: &Path, board: Board) -> Result<SensorConfig, IoError> {
                     whole(path, line, cmd, v[1])?,
                     whole(path, line, cmd, v[2])?,
                 ));
+            }
+            "compRangeBiasAndRxChanPhase" => {
+                comp = Some((line, fields(path, line, cmd, rest, 3)?));
             }
             _ => {}
         }
@@ -256,6 +267,42 @@ pub fn load_ti_cfg(path: &Path, board: Board) -> Result<SensorConfig, IoError> {
         ));
     }
     let (samples, adc_start_s) = (whole(path, pline, "profileCfg", p[9])?, p[3] * 1e-6);
+    let (range_bias_m, channel_gains) = match comp {
+        None => (0.0, None),
+        Some((line, v)) => {
+            let needed = slots.len() * rx.len();
+            if v.len() < 1 + 2 * needed || v.len() % 2 == 0 {
+                return Err(IoError::syntax(
+                    path,
+                    line,
+                    format!(
+                        "compRangeBiasAndRxChanPhase has {} values; expected the range bias and a \
+                         (Re, Im) pair for each of the {needed} virtual antennas",
+                        v.len()
+                    ),
+                ));
+            }
+            let gains: Vec<num_complex::Complex32> = (0..needed)
+                .map(|i| num_complex::Complex32::new(v[1 + 2 * i] as f32, v[2 + 2 * i] as f32))
+                .collect();
+            if let Some(i) = gains.iter().position(|g| !(g.norm_sqr() > 0.0)) {
+                return Err(IoError::syntax(
+                    path,
+                    line,
+                    format!(
+                        "compRangeBiasAndRxChanPhase: the factor of virtual antenna {i} (TX slot \
+                         {}, RX {}) is 0; it would erase the channel",
+                        i / rx.len(),
+                        i % rx.len()
+                    ),
+                ));
+            }
+            let identity = gains
+                .iter()
+                .all(|g| *g == num_complex::Complex32::new(1.0, 0.0));
+            (v[0], (!identity).then_some(gains))
+        }
+    };
     let sensor = SensorConfig {
         samples,
         loops,
@@ -272,6 +319,8 @@ pub fn load_ti_cfg(path: &Path, board: Board) -> Result<SensorConfig, IoError> {
         rx,
         f_design_hz: layout.f_design_hz,
         coupling: None,
+        channel_gains,
+        range_bias_m,
         adc_start_time_s: adc_start_s,
     };
     let sampling_end_us = p[3] + samples as f64 / (p[10] * 1e-3);
