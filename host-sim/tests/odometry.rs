@@ -235,6 +235,19 @@ fn ekf_with_an_ideal_imu_and_exact_velocities_follows_the_truth() -> TestResult 
     Ok(())
 }
 
+/// 4σ bound of the end-point drift of a filter with velocity updates of noise `sigma_v` (m/s
+/// per axis, 10 Hz) over `t` s after the standstill: the heading error from the gyro's
+/// turn-on bias left after a 1 s standstill mean (σ_b0 = density/√1 s), its white noise and
+/// bias walk, `σ_ψ(t)² = (σ_b0·t)² + density²·t + walk²·t³/3`, rotating the whole path, plus the
+/// velocity noise integrated over the frames, `σ_v·√(t·Δt)`.
+fn drift_bound(spec: &ImuSpec, t: f64, path_m: f64, sigma_v: f64) -> f64 {
+    let sigma_yaw = ((spec.gyro_noise * t).powi(2)
+        + spec.gyro_noise.powi(2) * t
+        + spec.gyro_bias_walk.powi(2) * t.powi(3) / 3.0)
+        .sqrt();
+    4.0 * sigma_yaw * path_m + 4.0 * sigma_v * (t * 0.1).sqrt()
+}
+
 #[test]
 fn ekf_drift_with_perfect_velocity_updates_is_bounded_by_the_imu_noise() -> TestResult {
     // Radar velocities exact but for 2 cm/s white noise: position error comes from the heading,
@@ -253,12 +266,7 @@ fn ekf_drift_with_perfect_velocity_updates_is_bounded_by_the_imu_noise() -> Test
         let run = odometry::run(&EkfParams::default(), &imu, &radar, &scene.rig)?;
         let gt = truth_at(&scene.sensor, (0..frames).map(|i| i as f64 / 10.0));
         let e = metrics::evaluate(&run.trajectory, &gt).ok_or("no match")?;
-        let t = t_end - 1.0;
-        let sigma_yaw = ((spec.gyro_noise * t).powi(2)
-            + spec.gyro_noise.powi(2) * t
-            + spec.gyro_bias_walk.powi(2) * t.powi(3) / 3.0)
-            .sqrt();
-        let bound = 4.0 * sigma_yaw * e.path_length_m + 4.0 * 0.02 * (t * 0.1).sqrt();
+        let bound = drift_bound(&spec, t_end - 1.0, e.path_length_m, 0.02);
         assert!(
             e.drift.xyz_m < bound,
             "seed {seed}: drift {} m > {bound} m",
@@ -379,12 +387,7 @@ fn point_updates_keep_the_filter_on_three_points_a_frame_and_gate_a_walker() -> 
     let inv = hth.try_inverse().ok_or("singular")?;
     let sigma_v = sigma * inv.symmetric_eigenvalues().max().sqrt();
     let e = metrics::evaluate(&run.trajectory, &gt).ok_or("no match")?;
-    let t = t_end - 1.0;
-    let sigma_yaw = ((spec.gyro_noise * t).powi(2)
-        + spec.gyro_noise.powi(2) * t
-        + spec.gyro_bias_walk.powi(2) * t.powi(3) / 3.0)
-        .sqrt();
-    let bound = 4.0 * sigma_yaw * e.path_length_m + 4.0 * sigma_v * (t * 0.1).sqrt();
+    let bound = drift_bound(&spec, t_end - 1.0, e.path_length_m, sigma_v);
     assert!(
         e.drift.xyz_m < bound,
         "drift {} m > {bound} m",

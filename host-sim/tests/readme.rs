@@ -172,18 +172,25 @@ fn readme_headline_table_is_the_committed_report() -> TestResult {
     Ok(())
 }
 
+/// The odometry summary row of `sequence` and `variant` in the report's `summary.json`.
+fn odometry_row<'a>(
+    summary: &'a Value,
+    sequence: &str,
+    variant: &str,
+) -> Result<&'a Value, String> {
+    summary["odometry_summary"]
+        .as_array()
+        .ok_or("summary.json has no odometry_summary")?
+        .iter()
+        .find(|r| r["sequence"] == sequence && r["variant"] == variant)
+        .ok_or_else(|| format!("summary.json: no odometry row {sequence} {variant}"))
+}
+
 #[test]
 fn readme_odometry_table_is_the_committed_report() -> TestResult {
     let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
     let readme = read("README.md")?;
-    let rows = summary["odometry_summary"]
-        .as_array()
-        .ok_or("summary.json has no odometry_summary")?;
-    let find = |seq: &str, v: &str| {
-        rows.iter()
-            .find(|r| r["sequence"] == seq && r["variant"] == v)
-            .ok_or_else(|| format!("summary.json: no odometry row {seq} {v}"))
-    };
+    let find = |seq: &str, v: &str| odometry_row(&summary, seq, v);
     let seeds = summary["config"]["odometry_seeds"].as_u64().unwrap_or(0);
     assert!(
         readme.contains(&format!("{seeds} seeds each")),
@@ -253,14 +260,7 @@ fn readme_odometry_table_is_the_committed_report() -> TestResult {
 fn readme_point_update_figures_are_the_committed_report() -> TestResult {
     let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
     let flat = one_line(&read("README.md")?);
-    let rows = summary["odometry_summary"]
-        .as_array()
-        .ok_or("summary.json has no odometry_summary")?;
-    let find = |seq: &str, v: &str| {
-        rows.iter()
-            .find(|r| r["sequence"] == seq && r["variant"] == v)
-            .ok_or_else(|| format!("summary.json: no odometry row {seq} {v}"))
-    };
+    let find = |seq: &str, v: &str| odometry_row(&summary, seq, v);
     let pair = |r: &Value| -> Result<(f64, f64), String> {
         Ok((
             num(&r["xyz_pct_without_point_updates"], "without")?,
