@@ -130,9 +130,9 @@ fn comp_range_bias_and_rx_chan_phase_gives_the_bias_and_the_channel_gains() -> T
     let base = std::fs::read_to_string(coloradar_cfg())?;
     let dir = tempfile::tempdir()?;
     let path = dir.path().join("comp.cfg");
-    // 12 pairs as TI's demo prints them: virtual antenna i = slot·4 + rx has (Re, Im) =
-    // (1 − i/32, i/64); then one pair more than this setup has, which is ignored.
-    let pairs: Vec<String> = (0..13)
+    // 12 pairs, one per physical TX–RX pair (TX·4 + RX): (Re, Im) = (1 − i/32, i/64). The
+    // ColoRadar .cfg fires TX0, TX2, TX1: slot 1 takes TX2's pairs 8..12, slot 2 TX1's 4..8.
+    let pairs: Vec<String> = (0..12)
         .map(|i| format!("{} {}", 1.0 - f64::from(i) / 32.0, f64::from(i) / 64.0))
         .collect();
     let line = format!("compRangeBiasAndRxChanPhase 0.07 {}", pairs.join(" "));
@@ -144,10 +144,27 @@ fn comp_range_bias_and_rx_chan_phase_gives_the_bias_and_the_channel_gains() -> T
     assert_eq!(s.range_bias_m, 0.07);
     let gains = s.channel_gains.ok_or("no channel gains")?;
     assert_eq!(gains.len(), 12);
-    for (i, g) in gains.iter().enumerate() {
+    for (v, g) in gains.iter().enumerate() {
+        let (slot, rx) = (v / 4, v % 4);
+        let i = [0, 2, 1][slot] * 4 + rx;
         let (re, im) = (1.0 - i as f32 / 32.0, i as f32 / 64.0);
-        assert_eq!((g.re, g.im), (re, im), "virtual antenna {i}");
+        assert_eq!((g.re, g.im), (re, im), "slot {slot} RX{rx}");
     }
+    // RX0 and RX2 only (channelCfg 5): each slot takes its TX's pairs of those two.
+    std::fs::write(
+        &path,
+        base.replace("lowPower 0 0", &line)
+            .replace("channelCfg 15 7 0", "channelCfg 5 7 0"),
+    )?;
+    let gains = load_ti_cfg(&path, Board::Awr1843boost)?
+        .channel_gains
+        .ok_or("no channel gains")?;
+    let expected: Vec<usize> = vec![0, 2, 8, 10, 4, 6];
+    let got: Vec<usize> = gains
+        .iter()
+        .map(|g| (g.im * 64.0).round() as usize)
+        .collect();
+    assert_eq!(got, expected);
 
     // The identity (TI's default line) is no calibration at all.
     let identity = format!("compRangeBiasAndRxChanPhase 0.0{}", " 1 0".repeat(12));
@@ -159,11 +176,11 @@ fn comp_range_bias_and_rx_chan_phase_gives_the_bias_and_the_channel_gains() -> T
     for (text, expected) in [
         (
             format!("compRangeBiasAndRxChanPhase 0.0{}", " 1 0".repeat(11)),
-            "for each of the 12 virtual antennas",
+            "for each of the 12 TX–RX pairs of the awr1843boost",
         ),
         (
             format!("compRangeBiasAndRxChanPhase 0.0{} 0 0", " 1 0".repeat(11)),
-            "virtual antenna 11 (TX slot 2, RX 3) is 0",
+            "the factor of TX2 RX3 is 0",
         ),
     ] {
         std::fs::write(&path, base.replace("lowPower 0 0", &text))?;

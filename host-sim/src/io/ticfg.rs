@@ -16,11 +16,11 @@
 //! chirp variations, real ADC output. The board gives the antenna positions (half-wavelength
 //! units) and the frequency they are measured at.
 //!
-//! `compRangeBiasAndRxChanPhase` is read in the order TI's demo prints it after
-//! `measureRangeBiasAndRxChanPhase` and applies it: the radar cube's virtual antennas, TX in
-//! chirp (TDM slot) order, the enabled RX in ascending order, `tx·rx + r`; values past the
-//! configured antennas (the demo always writes all of them) are ignored. A pair that is 0 is an
-//! error: it would erase its channel.
+//! `compRangeBiasAndRxChanPhase` is read as TI's demos read it: one (Re, Im) pair per physical
+//! antenna pair of the board, `TX·4 + RX` by physical index (TX0 RX0, TX0 RX1, …, all of them
+//! whichever are enabled), each TDM slot taking the pair of the TX it fires and the enabled RX
+//! (the demos' `rxChPhaseComp[txAntOrder[t]·SYS_COMMON_NUM_RX_CHANNEL + rxAntOrder[r]]`). A pair
+//! that is 0 is an error: it would erase its channel.
 
 use std::path::Path;
 
@@ -270,32 +270,39 @@ pub fn load_ti_cfg(path: &Path, board: Board) -> Result<SensorConfig, IoError> {
     let (range_bias_m, channel_gains) = match comp {
         None => (0.0, None),
         Some((line, v)) => {
-            let needed = slots.len() * rx.len();
-            if v.len() < 1 + 2 * needed || v.len() % 2 == 0 {
+            // Physical pairs: every TX of the board × its 4 RX.
+            let pairs = layout.tx.len() * 4;
+            if v.len() != 1 + 2 * pairs {
                 return Err(IoError::syntax(
                     path,
                     line,
                     format!(
                         "compRangeBiasAndRxChanPhase has {} values; expected the range bias and a \
-                         (Re, Im) pair for each of the {needed} virtual antennas",
-                        v.len()
+                         (Re, Im) pair for each of the {pairs} TX–RX pairs of the {} ({} TX × 4 RX)",
+                        v.len(),
+                        board.name(),
+                        layout.tx.len()
                     ),
                 ));
             }
-            let gains: Vec<num_complex::Complex32> = (0..needed)
-                .map(|i| num_complex::Complex32::new(v[1 + 2 * i] as f32, v[2 + 2 * i] as f32))
-                .collect();
-            if let Some(i) = gains.iter().position(|g| !(g.norm_sqr() > 0.0)) {
-                return Err(IoError::syntax(
-                    path,
-                    line,
-                    format!(
-                        "compRangeBiasAndRxChanPhase: the factor of virtual antenna {i} (TX slot \
-                         {}, RX {}) is 0; it would erase the channel",
-                        i / rx.len(),
-                        i % rx.len()
-                    ),
-                ));
+            let enabled: Vec<usize> = (0..4).filter(|r| rx_mask & (1 << r) != 0).collect();
+            let mut gains = Vec::with_capacity(slots.len() * enabled.len());
+            for &tx in &slots {
+                for &r in &enabled {
+                    let i = tx * 4 + r;
+                    let g = num_complex::Complex32::new(v[1 + 2 * i] as f32, v[2 + 2 * i] as f32);
+                    if !(g.norm_sqr() > 0.0) {
+                        return Err(IoError::syntax(
+                            path,
+                            line,
+                            format!(
+                                "compRangeBiasAndRxChanPhase: the factor of TX{tx} RX{r} is 0; it \
+                                 would erase the channel"
+                            ),
+                        ));
+                    }
+                    gains.push(g);
+                }
             }
             let identity = gains
                 .iter()
