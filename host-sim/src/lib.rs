@@ -1,6 +1,7 @@
 //! Host-side tooling for dbe-radar: the reference implementation, the FMCW simulator, readers
 //! and writers of recorded data, the validation harness and the `dbe` command.
 
+pub mod calibrate;
 pub mod cloud;
 pub mod core_run;
 pub mod eval;

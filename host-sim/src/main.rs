@@ -34,6 +34,9 @@ enum Command {
     /// Radar-inertial odometry on a ColoRadar sequence (radar ego-velocity + IMU, error-state
     /// EKF); trajectory in TUM format, evaluated against ground truth when the sequence has it.
     Odometry(cli::odometry::OdometryArgs),
+    /// Measure a corner reflector at boresight: the per-channel gain and phase factors and the
+    /// range bias of a TI `.cfg`'s `compRangeBiasAndRxChanPhase`.
+    Calibrate(cli::calibrate::CalibrateArgs),
 }
 
 fn main() -> ExitCode {
@@ -47,6 +50,7 @@ fn main() -> ExitCode {
         Command::Eval(a) => cli::eval::run(a),
         Command::Bench(a) => cli::bench::run(a),
         Command::Odometry(a) => cli::odometry::run(a),
+        Command::Calibrate(a) => cli::calibrate::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

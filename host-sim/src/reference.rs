@@ -336,8 +336,29 @@ impl VirtualArray {
     }
 }
 
+/// The contract's range step for one chirp of one channel (module docs, §3.0): subtract the
+/// complex mean of `samples`, multiply by `window`, unnormalised FFT into `out` (all three the
+/// chirp's length, and `fft` of that length).
+pub fn range_spectrum(
+    samples: &[[i16; 2]],
+    window: &[f64],
+    fft: &dyn rustfft::Fft<f64>,
+    out: &mut [Complex64],
+) {
+    let n = samples.len().max(1);
+    let mean = samples
+        .iter()
+        .map(|s| Complex64::new(f64::from(s[0]), f64::from(s[1])))
+        .sum::<Complex64>()
+        / n as f64;
+    for ((o, s), w) in out.iter_mut().zip(samples).zip(window) {
+        *o = (Complex64::new(f64::from(s[0]), f64::from(s[1])) - mean) * *w;
+    }
+    fft.process(out);
+}
+
 /// Symmetric window of length `n`: `w[k]` with period `n − 1` (as `numpy.blackman(n)`).
-fn window(kind: WindowKind, n: usize) -> Vec<f64> {
+pub fn window(kind: WindowKind, n: usize) -> Vec<f64> {
     if n < 2 {
         return vec![1.0; n];
     }
@@ -1391,16 +1412,12 @@ fn range_cube(
         for t in 0..sensor.num_tx {
             for r in 0..sensor.num_rx {
                 let start = frame.index(kk, t, r, 0);
-                let samples = &frame.data[start..start + n];
-                let mean = samples
-                    .iter()
-                    .map(|s| Complex64::new(f64::from(s[0]), f64::from(s[1])))
-                    .sum::<Complex64>()
-                    / n as f64;
-                for ((o, s), w) in buf.iter_mut().zip(samples).zip(&setup.range_window) {
-                    *o = (Complex64::new(f64::from(s[0]), f64::from(s[1])) - mean) * *w;
-                }
-                setup.range_fft.process(&mut buf);
+                range_spectrum(
+                    &frame.data[start..start + n],
+                    &setup.range_window,
+                    setup.range_fft.as_ref(),
+                    &mut buf,
+                );
                 if let Some(c) = coupling {
                     let table = &c.data[(t * sensor.num_rx + r) * c.range_bins..][..c.range_bins];
                     for (v, cv) in buf.iter_mut().zip(table) {

@@ -957,3 +957,102 @@ fn simulate_with_realistic_surfaces() -> TestResult {
     assert!(!bare.exists(), "nothing written");
     Ok(())
 }
+
+/// `dbe calibrate` on the TI capture's corner reflector prints a `compRangeBiasAndRxChanPhase`
+/// line a `.cfg` takes as it is; processed with it, the reflector sits at boresight (what the
+/// calibration defines: its phases made equal), while without it the reflector is 4° off in
+/// azimuth. Refusals: a search window beyond the chirp's ranges.
+#[test]
+fn calibrate_prints_the_line_a_ti_cfg_takes_and_it_moves_the_reflector_to_boresight() -> TestResult
+{
+    let Some(shared) = shared_fixture_dir() else {
+        return Ok(());
+    };
+    let bin = shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin");
+    let dir = tempfile::tempdir()?;
+    // The capture's sizes with its assumed RF values (the fixture's waveform_cfg.txt).
+    let cfg =
+        "channelCfg 15 7 0\nadcCfg 2 1\nprofileCfg 0 60.25 10 6 60 0 0 60 1 256 10000 0 0 30\n\
+               chirpCfg 0 0 0 0 0 0 0 1\nchirpCfg 1 1 0 0 0 0 0 2\nchirpCfg 2 2 0 0 0 0 0 4\n\
+               frameCfg 0 2 64 0 100 1 0\n";
+    let plain = dir.path().join("plain.cfg");
+    std::fs::write(&plain, cfg)?;
+    let board = ["--board", "iwr6843isk"];
+    let out = ok(&[
+        &[
+            "calibrate",
+            s(&bin),
+            "--calib",
+            s(&plain),
+            "--distance",
+            "3.7",
+        ][..],
+        &board[..],
+    ]
+    .concat());
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("compRangeBiasAndRxChanPhase "))
+        .ok_or_else(|| format!("no line in {out}"))?;
+    assert!(out.contains("range bin 38"), "{out}");
+    let calibrated = dir.path().join("calibrated.cfg");
+    std::fs::write(&calibrated, format!("{cfg}{out}"))?;
+    let sensor =
+        host_sim::io::ticfg::load_ti_cfg(&calibrated, host_sim::io::ticfg::Board::Iwr6843isk)?;
+    let gains = sensor.channel_gains.ok_or("the line gave no factors")?;
+    assert_eq!(gains.len(), 12);
+    assert!(line.split_whitespace().count() == 2 + 24, "{line}");
+
+    // The strongest point's azimuth and elevation, degrees, processed with `cfg`.
+    let angles = |cfg: &Path, name: &str| -> Result<(f64, f64), Box<dyn std::error::Error>> {
+        let o = dir.path().join(name);
+        ok(&[
+            &[
+                "process",
+                s(&bin),
+                "--out",
+                s(&o),
+                "--format",
+                "csv",
+                "--calib",
+                s(cfg),
+            ][..],
+            &board[..],
+        ]
+        .concat());
+        let points = host_sim::io::read_csv(&o.join("csv/frame_0.csv"))?;
+        let p = points
+            .iter()
+            .max_by(|a, b| a.intensity_db.total_cmp(&b.intensity_db))
+            .ok_or("no points")?;
+        let r = (p.x * p.x + p.y * p.y + p.z * p.z).sqrt();
+        Ok((p.y.atan2(p.x).to_degrees(), (p.z / r).asin().to_degrees()))
+    };
+    let (az0, el0) = angles(&plain, "plain")?;
+    let (az1, el1) = angles(&calibrated, "calibrated")?;
+    eprintln!(
+        "reflector: uncalibrated az {az0:.2}° el {el0:.2}°, calibrated az {az1:.3}° el {el1:.3}°"
+    );
+    assert!(az0.abs() > 2.0, "uncalibrated azimuth {az0}");
+    assert!(
+        az1.abs() < 0.2 && el1.abs() < 0.2,
+        "calibrated {az1}° {el1}°"
+    );
+
+    let err = fails(
+        &[
+            &[
+                "calibrate",
+                s(&bin),
+                "--calib",
+                s(&plain),
+                "--distance",
+                "900",
+            ][..],
+            &board[..],
+        ]
+        .concat(),
+    );
+    assert!(err.contains("search window"), "{err}");
+    Ok(())
+}

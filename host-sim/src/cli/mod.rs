@@ -1,6 +1,7 @@
 //! The `dbe` subcommands.
 
 pub mod bench;
+pub mod calibrate;
 pub mod demo;
 pub mod eval;
 pub mod input;

@@ -345,3 +345,33 @@ pub fn load_ti_cfg(path: &Path, board: Board) -> Result<SensorConfig, IoError> {
     super::calib::check_sensor(path, &sensor)?;
     Ok(sensor)
 }
+
+/// The `compRangeBiasAndRxChanPhase` line that gives `sensor` (read from a `.cfg` for `board`)
+/// the range bias `range_bias_m` and the channel factors `gains` (data order `[tx slot][rx]`):
+/// one pair per physical TX–RX pair of the board (module docs), the pairs the `.cfg` does not
+/// use set to 1. `None` if a channel of `sensor` is not one of the board's antenna pairs (a
+/// sensor that did not come from a `.cfg` for this board) or `gains` is not one per channel.
+pub fn comp_range_bias_line(
+    board: Board,
+    sensor: &SensorConfig,
+    range_bias_m: f64,
+    gains: &[num_complex::Complex32],
+) -> Option<String> {
+    let layout = board.layout(Path::new("")).ok()?;
+    if gains.len() != sensor.num_tx * sensor.num_rx {
+        return None;
+    }
+    let mut pairs = vec![num_complex::Complex32::new(1.0, 0.0); layout.tx.len() * 4];
+    for (c, g) in gains.iter().enumerate() {
+        let (t, r) = (c / sensor.num_rx, c % sensor.num_rx);
+        let (tx_at, rx_at) = (*sensor.tx.get(t)?, *sensor.rx.get(r)?);
+        let tx = layout.tx.iter().position(|p| *p == tx_at)?;
+        let rx = layout.rx.iter().position(|p| *p == rx_at)?;
+        pairs[tx * 4 + rx] = *g;
+    }
+    let mut line = format!("compRangeBiasAndRxChanPhase {range_bias_m:.4}");
+    for g in pairs {
+        line.push_str(&format!(" {:.5} {:.5}", g.re, g.im));
+    }
+    Some(line)
+}
