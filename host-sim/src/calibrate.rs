@@ -7,7 +7,8 @@
 //! per channel c : range spectrum of every chirp (the contract's range step), mean over the loops
 //!                 and frames → X_c[b]  (a static reflector adds up coherently, noise does not)
 //! peak          : b* = argmax Σ_c |X_c[b]|² within distance ± search; range = (b* + δ)·Δr with δ
-//!                 the parabola through the amplitudes at b* − 1, b*, b* + 1
+//!                 the chains' sub-grid offset (the log-power parabola through b* − 1, b*, b* + 1),
+//!                 so that the bias is measured as the points' ranges are
 //! range bias    : range − distance
 //! factors       : g_c = conj(x_c) · min_c|x_c| / |x_c|², x_c = X_c[b*]: every channel then has
 //!                 the weakest one's amplitude and phase 0, what a reflector at boresight gives
@@ -156,32 +157,24 @@ pub fn measure(
             bin_m,
         });
     }
-    let power = |b: usize| mean.iter().map(|x| x[b].norm_sqr()).sum::<f64>();
+    // Σ_c |X_c[b]|² per range bin.
+    let power: Vec<f64> = (0..n)
+        .map(|b| mean.iter().map(|x| x[b].norm_sqr()).sum())
+        .collect();
     let peak = (lo..=hi)
-        .max_by(|&a, &b| power(a).total_cmp(&power(b)))
+        .max_by(|&a, &b| power[a].total_cmp(&power[b]))
         .unwrap_or(lo);
-    // The amplitude parabola through the peak and its neighbours.
-    let (a, b, c) = (
-        power(peak - 1).sqrt(),
-        power(peak).sqrt(),
-        power(peak + 1).sqrt(),
-    );
-    let den = a - 2.0 * b + c;
-    let delta = if den < 0.0 {
-        (0.5 * (a - c) / den).clamp(-0.5, 0.5)
-    } else {
-        0.0
-    };
+    let delta = reference::log_parabola_vertex(power[peak - 1], power[peak], power[peak + 1]);
     let range_m = (peak as f64 + delta) * bin_m;
     // The floor: every range bin but the peak's main lobe (a Blackman lobe is ±3 bins wide).
     let mut others: Vec<f64> = (1..n)
         .filter(|&x| x.abs_diff(peak) > 3)
-        .map(power)
+        .map(|x| power[x])
         .collect();
     others.sort_by(f64::total_cmp);
     let floor = others.get(others.len() / 2).copied().unwrap_or(0.0);
     let peak_over_median_db = if floor > 0.0 {
-        10.0 * (power(peak) / floor).log10()
+        10.0 * (power[peak] / floor).log10()
     } else {
         f64::INFINITY
     };

@@ -398,7 +398,7 @@ fn sine_grid(span: (f32, f32), bins: usize) -> Vec<f64> {
 /// Sub-grid peak position (`Params::subgrid`): the vertex of the parabola through
 /// `(−1, ln l)`, `(0, ln c)`, `(1, ln r)`, in bins from the centre, clamped to `[−½, ½]`; 0
 /// unless all three powers are positive, `c` is the largest and the parabola opens downwards.
-fn log_parabola_vertex(l: f64, c: f64, r: f64) -> f64 {
+pub(crate) fn log_parabola_vertex(l: f64, c: f64, r: f64) -> f64 {
     if !(l > 0.0 && c > 0.0 && r > 0.0) || c < l || c < r {
         return 0.0;
     }

@@ -461,7 +461,7 @@ fn a_reflector_at_boresight_measures_the_channel_errors_and_the_range_bias() -> 
     // A reflector at boresight, 2.5 m, on the uncalibrated board: the measured factors undo
     // the errors up to one common factor (phase within 0.5°, amplitude within 0.1 dB at this
     // SNR after 128 loops), the range bias is the reflector's offset from 2.5 m as the range
-    // FFT sees it (within 0.1 bin: the amplitude parabola's error on a Blackman peak), and the
+    // FFT sees it (within 0.1 bin: the log-parabola's error on a Blackman peak), and the
     // four targets, recorded by the same board and processed with the measured factors, sit
     // where physics says.
     let mut sensor = SensorConfig::coloradar();
