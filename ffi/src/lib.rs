@@ -1118,16 +1118,25 @@ pub unsafe extern "C" fn dbe_set_coupling(
     values: usize,
 ) -> dbe_status_t {
     let r = radar_or_return!(handle);
-    if values > 0 && coupling.is_null() {
-        return DBE_ERR_NULL_POINTER;
+    // SAFETY: the caller guarantees `values` floats at `coupling`.
+    match unsafe { floats(coupling, values) } {
+        Ok(v) => r.set_coupling(v),
+        Err(e) => e,
     }
-    let v: &[f32] = if values == 0 {
-        &[]
-    } else {
+}
+
+/// The caller's `values` floats at `ptr` (none when `values` is 0, whatever `ptr`), or
+/// `DBE_ERR_NULL_POINTER` for a NULL array of some length.
+///
+/// # Safety
+/// `ptr` is valid for `values` floats for the returned lifetime (or `values` is 0).
+unsafe fn floats<'a>(ptr: *const f32, values: usize) -> Result<&'a [f32], dbe_status_t> {
+    match (values, ptr.is_null()) {
+        (0, _) => Ok(&[]),
+        (_, true) => Err(DBE_ERR_NULL_POINTER),
         // SAFETY: non-null, the caller guarantees `values` floats.
-        unsafe { core::slice::from_raw_parts(coupling, values) }
-    };
-    r.set_coupling(v)
+        _ => Ok(unsafe { core::slice::from_raw_parts(ptr, values) }),
+    }
 }
 
 /// Attach a per-channel gain and phase calibration: `values` = `tx · rx · 2` floats in the
@@ -1145,16 +1154,11 @@ pub unsafe extern "C" fn dbe_set_channel_gains(
     values: usize,
 ) -> dbe_status_t {
     let r = radar_or_return!(handle);
-    if values > 0 && gains.is_null() {
-        return DBE_ERR_NULL_POINTER;
+    // SAFETY: the caller guarantees `values` floats at `gains`.
+    match unsafe { floats(gains, values) } {
+        Ok(v) => r.set_channel_gains(v),
+        Err(e) => e,
     }
-    let v: &[f32] = if values == 0 {
-        &[]
-    } else {
-        // SAFETY: non-null, the caller guarantees `values` floats.
-        unsafe { core::slice::from_raw_parts(gains, values) }
-    };
-    r.set_channel_gains(v)
 }
 
 /// Set the range bias, m, subtracted from the range of every point of the frames processed
