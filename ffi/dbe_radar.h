@@ -66,7 +66,7 @@
 /**
  * State bytes of the ColoRadar preset, at most (any target).
  */
-#define DBE_COLORADAR_STATE_BYTES_MAX 172032
+#define DBE_COLORADAR_STATE_BYTES_MAX 174080
 
 /**
  * Cube bytes of the IWR6843 preset (256 · 12 · 64 · 4).
@@ -76,7 +76,7 @@
 /**
  * State bytes of the IWR6843 preset, at most (any target).
  */
-#define DBE_IWR6843_STATE_BYTES_MAX 276480
+#define DBE_IWR6843_STATE_BYTES_MAX 278528
 
 /**
  * Ego-velocity status: a velocity from enough inliers.

@@ -85,6 +85,19 @@ fn cross<const K: usize, const B: usize>(
     core::array::from_fn(|b| Complex32::new(re[b], im[b]))
 }
 
+/// `r[i][j] · f[i] · f[j]` (in that order; a missing `f[i]` counts as 1): the covariance of
+/// snapshots whose row `i` was multiplied by `f[i]`, for real factors (undoes
+/// [`crate::cube::Frame::leading_snapshots_factored`]).
+pub fn scale_rows<const D: usize>(r: &mut Matrix<D>, f: &[f32]) {
+    for (i, row) in r.iter_mut().enumerate() {
+        let fi = f.get(i).copied().unwrap_or(1.0);
+        for (j, v) in row.iter_mut().enumerate() {
+            let fj = f.get(j).copied().unwrap_or(1.0);
+            *v = *v * fi * fj;
+        }
+    }
+}
+
 /// The leading `D × D` block of `r`.
 pub fn leading_block<const M: usize, const D: usize>(r: &Matrix<M>) -> Matrix<D> {
     const { assert!(D <= M) };

@@ -143,9 +143,18 @@ impl<'a, const N: usize, const K: usize, const M: usize> Cube<'a, N, K, M> {
                 expected,
             });
         }
+        // A row whose chirps all have one exponent (the usual case: a chirp's peak is a
+        // steady return or the TX–RX leakage) decodes without a multiply, see
+        // `Frame::leading_snapshots_factored`.
+        let uniform = core::array::from_fn(|row| {
+            let exps = &self.exponent[row];
+            let first = exps.first().copied().unwrap_or(0);
+            exps.iter().all(|&e| e == first).then_some(first)
+        });
         Ok(Frame {
             bins: self.bins,
             exponent: &self.exponent,
+            uniform,
         })
     }
 
@@ -267,6 +276,8 @@ fn block_exponent(peak: f32) -> i32 {
 pub struct Frame<'c, const N: usize, const K: usize, const M: usize> {
     bins: &'c CubeStorage<N, K, M>,
     exponent: &'c [[i8; K]; M],
+    /// Per row: its exponent when all its chirps share one, else `None`.
+    uniform: [Option<i8>; M],
 }
 
 impl<const N: usize, const K: usize, const M: usize> Frame<'_, N, K, M> {
@@ -296,6 +307,55 @@ impl<const N: usize, const K: usize, const M: usize> Frame<'_, N, K, M> {
                 *v = Complex32::new(f32::from(m[0]) * scale, f32::from(m[1]) * scale);
             }
         }
+    }
+}
+
+impl<const N: usize, const K: usize, const M: usize> Frame<'_, N, K, M> {
+    /// [`Self::leading_snapshots`] with the block exponent factored out of every row whose
+    /// chirps share one: row `i` of `out` is the decoded row times `1 / f[i]`, `f` returned
+    /// (`f[i] = 2^e` for such a row, decoded as bare mantissas with no multiply; 1 for a row
+    /// whose chirps have different exponents, decoded as usual).
+    ///
+    /// Multiplying by a power of two commutes with `f32` rounding (away from overflow and
+    /// subnormals, which block exponents within ±125 of data from i16 samples do not reach),
+    /// so the covariance of `out` with entry `(i, j)` multiplied by `f[i]` and then `f[j]`
+    /// ([`crate::covariance::scale_rows`]) is bit-identical to the covariance of the decoded
+    /// snapshots, and the azimuth stage decodes its rows with a conversion per component only
+    /// (issue 13).
+    pub fn leading_snapshots_factored(
+        &self,
+        b: usize,
+        rows: usize,
+        out: &mut Snapshots<K, M>,
+    ) -> [f32; M] {
+        let mut factor = [1.0f32; M];
+        let Some(bin) = self.bins.get(b) else {
+            self.leading_snapshots(b, rows, out);
+            return factor;
+        };
+        for (((o, row), exps), (f, uniform)) in out
+            .iter_mut()
+            .zip(bin.iter())
+            .zip(self.exponent.iter())
+            .zip(factor.iter_mut().zip(self.uniform.iter()))
+            .take(rows)
+        {
+            match uniform {
+                Some(e) => {
+                    *f = stored_pow2(*e);
+                    for (v, m) in o.iter_mut().zip(row.iter()) {
+                        *v = Complex32::new(f32::from(m[0]), f32::from(m[1]));
+                    }
+                }
+                None => {
+                    for ((v, m), &e) in o.iter_mut().zip(row.iter()).zip(exps.iter()) {
+                        let scale = stored_pow2(e);
+                        *v = Complex32::new(f32::from(m[0]) * scale, f32::from(m[1]) * scale);
+                    }
+                }
+            }
+        }
+        factor
     }
 }
 
@@ -488,4 +548,64 @@ mod tests {
             }
         }
     }
+
+    /// The azimuth stage's decoding (exponent factored out of uniform rows, put back on the
+    /// covariance) gives the decoded covariance bit for bit, for a uniform row, a row whose
+    /// chirps have three different exponents, a zero row and an out-of-cube bin.
+    #[test]
+    fn factored_rows_give_the_decoded_covariance_bit_for_bit() {
+        const N: usize = 4;
+        const K: usize = 8;
+        const M: usize = 4;
+        let mut storage = zero_storage::<N, K, M>();
+        let mut cube = Cube::<N, K, M>::new(&mut storage);
+        for k in 0..K {
+            for row in 0..M {
+                // Row 0: one scale (one exponent); row 1: the scale changes by 2^±6 between
+                // loops; row 2: another steady scale; row 3: all zero.
+                let scale = match row {
+                    0 => 1234.5,
+                    1 => [3.0e4f32, 470.0, 2.9e6][k % 3],
+                    2 => 0.75,
+                    _ => 0.0,
+                };
+                let spectrum: [Complex32; N] = core::array::from_fn(|n| {
+                    let x = (n * 5 + k * 3 + row) as f32;
+                    Complex32::new(scale * libm::sinf(x), scale * libm::cosf(1.7 * x))
+                });
+                cube.store(row, k, &spectrum);
+            }
+        }
+        cube.received = K as u32;
+        let frame = cube
+            .frame(1)
+            .expect("K chirps of one slot are a whole frame");
+        assert!(frame.uniform[0].is_some());
+        assert_eq!(frame.uniform[1], None);
+        for b in 0..=N {
+            let (mut decoded, mut factored) = ([[ZERO_C; K]; M], [[ZERO_C; K]; M]);
+            frame.snapshots(b, &mut decoded);
+            let f = frame.leading_snapshots_factored(b, M, &mut factored);
+            let (mut want, mut got) = (
+                crate::covariance::zero::<M>(),
+                crate::covariance::zero::<M>(),
+            );
+            crate::covariance::covariance(&decoded[..], &mut want);
+            crate::covariance::covariance(&factored[..], &mut got);
+            crate::covariance::scale_rows(&mut got, &f);
+            for (w, g) in want.iter().flatten().zip(got.iter().flatten()) {
+                assert_eq!(
+                    (w.re.to_bits(), w.im.to_bits()),
+                    (g.re.to_bits(), g.im.to_bits()),
+                    "bin {b}: {w} vs {g}"
+                );
+            }
+            if b < N {
+                assert!(want[0][0].re > 0.0 && want[1][1].re > 0.0 && want[0][1].norm() > 0.0);
+                assert_ne!(f[0], 1.0, "the uniform row's exponent is factored out");
+            }
+        }
+    }
+
+    const ZERO_C: Complex32 = Complex32::new(0.0, 0.0);
 }

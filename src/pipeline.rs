@@ -29,7 +29,8 @@ use crate::config::{
     finite, sine_at, sine_grid, validate_bins_and_spans, ArrayLayout, ConfigError, Param,
 };
 use crate::covariance::{
-    covariance, forward_backward, leading_block, load_diagonal, rotate_rows, zero, Matrix,
+    covariance, forward_backward, leading_block, load_diagonal, rotate_rows, scale_rows, zero,
+    Matrix,
 };
 use crate::cube::{Frame, Snapshots};
 use crate::doppler::{doppler_peak, peak_to_median};
@@ -392,6 +393,9 @@ pub struct Dbe<
     el_nu: [f32; NEL],
     /// `exp(−j·κ·μ_i·az_m)` for every row.
     az_steer: [[Complex32; M]; NAZ],
+    /// The azimuth line's phase step of every azimuth bin, `line_phase(az_steer[i])`: the
+    /// map's Capon power needs only it ([`LineSpectrum::power_at`]).
+    az_line_phase: [Complex32; NAZ],
     /// `exp(−j·κ·ν_j·el_m)` for every row (1 on the azimuth line).
     el_steer: [[Complex32; M]; NEL],
     /// Line phase step per unit μ, `κ·(az_1 − az_0)` (rad): `φ = line_phase_per_mu · μ`.
@@ -437,6 +441,7 @@ impl<
             az_mu: [0.0; NAZ],
             el_nu: [0.0; NEL],
             az_steer: [[ZERO; M]; NAZ],
+            az_line_phase: [ZERO; NAZ],
             el_steer: [[ZERO; M]; NEL],
             line_phase_per_mu: 0.0,
             kappa: 0.0,
@@ -471,6 +476,9 @@ impl<
         self.el_nu = sine_grid::<NEL>(params.elevation_span_deg);
         for (row, mu) in self.az_steer.iter_mut().zip(self.az_mu.iter()) {
             phase_row(kappa * mu, &layout.az, row);
+        }
+        for (z, row) in self.az_line_phase.iter_mut().zip(self.az_steer.iter()) {
+            *z = line_phase(row);
         }
         for (row, nu) in self.el_steer.iter_mut().zip(self.el_nu.iter()) {
             phase_row(kappa * nu, &layout.el, row);
@@ -540,9 +548,10 @@ impl<
                 continue;
             };
             // Only the azimuth line's rows are read below.
-            frame.leading_snapshots(b, AZ, &mut work.block);
+            let factor = frame.leading_snapshots_factored(b, AZ, &mut work.block);
             let mut cov = zero::<AZ>();
             covariance(&work.block[..], &mut cov);
+            scale_rows(&mut cov, &factor);
             match self.azimuth_capon(&cov) {
                 Some((capon, delta, n)) => {
                     // P(θ) ≥ δ / n: the loading floor of this row (see `cfar`).
@@ -552,19 +561,19 @@ impl<
                     // On a host four azimuths at a time in SIMD lanes (bit-identical); on a
                     // Cortex-M (no vector registers) one at a time.
                     #[cfg(not(target_arch = "arm"))]
-                    let (ra, steers) = {
+                    let (ra, phases) = {
                         let mut ra = ra.chunks_exact_mut(LANES);
-                        let mut steers = self.az_steer.chunks_exact(LANES);
-                        for (p, s) in (&mut ra).zip(&mut steers) {
-                            let z: [Complex32; LANES] = core::array::from_fn(|l| line_phase(&s[l]));
-                            p.copy_from_slice(&line.powers_at(&z));
+                        let mut phases = self.az_line_phase.chunks_exact(LANES);
+                        for (p, z) in (&mut ra).zip(&mut phases) {
+                            let z: &[Complex32; LANES] = z.try_into().unwrap_or(&[ZERO; LANES]);
+                            p.copy_from_slice(&line.powers_at(z));
                         }
-                        (ra.into_remainder(), steers.remainder())
+                        (ra.into_remainder(), phases.remainder())
                     };
                     #[cfg(target_arch = "arm")]
-                    let steers = &self.az_steer;
-                    for (p, steer) in ra.iter_mut().zip(steers.iter()) {
-                        *p = line.power_at(line_phase(steer));
+                    let phases = &self.az_line_phase;
+                    for (p, &z) in ra.iter_mut().zip(phases.iter()) {
+                        *p = line.power_at(z);
                     }
                 }
                 None => work.skipped_range_bins += 1,

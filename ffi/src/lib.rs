@@ -78,11 +78,11 @@ pub const DBE_CUBE_ALIGN: usize = 4;
 /// Cube bytes of the ColoRadar preset (128 · 12 · 128 · 4).
 pub const DBE_COLORADAR_CUBE_BYTES: usize = 786_432;
 /// State bytes of the ColoRadar preset, at most (any target).
-pub const DBE_COLORADAR_STATE_BYTES_MAX: usize = 172_032;
+pub const DBE_COLORADAR_STATE_BYTES_MAX: usize = 174_080;
 /// Cube bytes of the IWR6843 preset (256 · 12 · 64 · 4).
 pub const DBE_IWR6843_CUBE_BYTES: usize = 786_432;
 /// State bytes of the IWR6843 preset, at most (any target).
-pub const DBE_IWR6843_STATE_BYTES_MAX: usize = 276_480;
+pub const DBE_IWR6843_STATE_BYTES_MAX: usize = 278_528;
 
 /// Marks an initialised handle ("DBE1").
 const MAGIC: u32 = 0x4442_4531;
