@@ -640,16 +640,21 @@ impl<
                 &dets[start..start + run],
                 &mut beam_doppler[start..start + run],
             );
-            frame.snapshots(usize::from(first.range_bin), block);
+            let factor = frame.leading_snapshots_factored(usize::from(first.range_bin), M, block);
             covariance(&block[..], &mut cov);
+            scale_rows(&mut cov, &factor);
+            let bin = BinRows {
+                rows: &*block,
+                factor,
+            };
             for (d, det) in dopplers.iter_mut().zip(group) {
                 let i = usize::from(det.column);
                 *d = match need_doppler {
-                    true => match self.beam_doppler(&cov, block, i) {
+                    true => match self.beam_doppler(&cov, &bin, i) {
                         // A failed Doppler test: −∞ (never coherent, no point).
                         Some(d)
                             if test > 0.0
-                                && !(self.doppler_ratio(&cov, block, d, i) >= min_ratio) =>
+                                && !(self.doppler_ratio(&cov, &bin, d, i) >= min_ratio) =>
                         {
                             f32::NEG_INFINITY
                         }
@@ -682,7 +687,7 @@ impl<
                 };
                 for (d, coherent, at_mu) in &targets[..count] {
                     let doppler = dopplers[n];
-                    self.resolve_detection(d, doppler, *coherent, *at_mu, block, &cov, ra, out);
+                    self.resolve_detection(d, doppler, *coherent, *at_mu, &bin, &cov, ra, out);
                 }
                 if out.stats.points + out.stats.point_overflow == before {
                     out.stats.detections_without_point += 1;
@@ -830,7 +835,7 @@ impl<
     /// measure and what every point of the detection must agree with
     /// ([`Params::doppler_agreement_bins`]). `None` when the azimuth covariance is not
     /// positive definite.
-    fn beam_doppler(&self, cov: &Matrix<M>, snap: &Snapshots<K, M>, i: usize) -> Option<f32> {
+    fn beam_doppler(&self, cov: &Matrix<M>, snap: &BinRows<'_, K, M>, i: usize) -> Option<f32> {
         let (az, _, n) = self.azimuth_capon(&leading_block(cov))?;
         let w = az.weight(&Self::line_part(self.az_steer.get(i)?, n));
         let mut y = [ZERO; K];
@@ -848,7 +853,7 @@ impl<
     /// is steered where the target's slot phases do not point, and MVDR cancels it.) ∞ when
     /// the compensated covariance is not positive definite: the test rejects only what it
     /// measured.
-    fn doppler_ratio(&self, cov: &Matrix<M>, snap: &Snapshots<K, M>, d: f32, i: usize) -> f32 {
+    fn doppler_ratio(&self, cov: &Matrix<M>, snap: &BinRows<'_, K, M>, d: f32, i: usize) -> f32 {
         let (rot, i, line) = match self.params.tdm_compensation {
             true => {
                 // The climb's solver of the compensated line serves the beam too.
@@ -930,7 +935,7 @@ impl<
         beam_doppler: f32,
         coherent: bool,
         at_mu: Option<f32>,
-        snap: &Snapshots<K, M>,
+        snap: &BinRows<'_, K, M>,
         cov: &Matrix<M>,
         ra: &[[f32; NAZ]; N],
         out: &mut PointCloud<P>,
@@ -1107,7 +1112,7 @@ impl<
     #[inline(never)]
     fn ring_half(
         &self,
-        snap: &Snapshots<K, M>,
+        snap: &BinRows<'_, K, M>,
         rot: &[Complex32; M],
         doppler: f32,
         mu: f32,
@@ -1121,14 +1126,19 @@ impl<
             phasor *= step;
         }
         let mut t = [ZERO; M];
-        for (m, (tm, xm)) in t.iter_mut().zip(snap.iter()).enumerate() {
+        for (m, ((tm, xm), f)) in t
+            .iter_mut()
+            .zip(snap.rows.iter())
+            .zip(snap.factor.iter())
+            .enumerate()
+        {
             let (mut re, mut im) = (0.0f32, 0.0f32);
             for (x, e) in xm.iter().zip(kernel.iter()) {
                 re += x.re * e.re - x.im * e.im;
                 im += x.re * e.im + x.im * e.re;
             }
             let desteer = Complex32::from_polar(1.0, self.kappa * mu * self.layout.az[m]);
-            *tm = Complex32::new(re, im) * rot[m] * desteer;
+            *tm = Complex32::new(re, im) * *f * rot[m] * desteer;
         }
         let kappa_delta = libm::fabsf(self.kappa_delta());
         ring::half_phase(&t, AZ)
@@ -1287,16 +1297,31 @@ fn doppler_gap<const K: usize>(a: f32, b: f32) -> f32 {
     gap.min(libm::fabsf(K as f32 - gap))
 }
 
+/// One range bin's snapshots as [`Frame::leading_snapshots_factored`] decodes them: row `m`
+/// is `rows[m] · factor[m]` (`factor[m]` a power of two, 1 where the row was decoded as it is).
+#[derive(Clone, Copy, Debug)]
+struct BinRows<'a, const K: usize, const M: usize> {
+    rows: &'a Snapshots<K, M>,
+    factor: [f32; M],
+}
+
 /// `y[k] = Σ_m conj(w_m) · rot_m · x_m[k]` over the first `D` rows of `snap`.
 fn beamform<const D: usize, const M: usize, const K: usize>(
     w: &[Complex32; D],
-    snap: &[[Complex32; K]; M],
+    snap: &BinRows<'_, K, M>,
     rot: &[Complex32; D],
     y: &mut [Complex32; K],
 ) {
     *y = [ZERO; K];
-    for ((wm, rm), xm) in w.iter().zip(rot.iter()).zip(snap.iter()) {
-        let c = wm.conj() * rm;
+    for (((wm, rm), xm), f) in w
+        .iter()
+        .zip(rot.iter())
+        .zip(snap.rows.iter())
+        .zip(snap.factor.iter())
+    {
+        // `x_m = rows[m] · f_m` with `f_m` a power of two: scaling the coefficient instead
+        // of the row gives the same products bit for bit.
+        let c = wm.conj() * rm * *f;
         for (yk, xk) in y.iter_mut().zip(xm.iter()) {
             *yk += c * xk;
         }
