@@ -1217,9 +1217,19 @@ impl<
 
 /// `row[m] = exp(−j·k·pos_m)`: a steering row for phase `k` per unit position (κ times a
 /// direction cosine), written in place (the steering tables are filled row by row).
+///
+/// Elements at one position (the elevation row's azimuths repeat the line's; all line elements
+/// share one elevation) get the value of the first of them, copied: the same `f32` argument
+/// gives the same value, and `libm`'s `sinf`/`cosf` work in `f64`, software on a Cortex-M4F,
+/// so the ColoRadar tables take half the evaluations (issue 13: setup 9.5 M → 6.5 M
+/// instructions on the Cortex-M4F).
 fn phase_row<const M: usize>(k: f32, pos: &[f32; M], row: &mut [Complex32; M]) {
-    for (a, p) in row.iter_mut().zip(pos.iter()) {
-        *a = Complex32::from_polar(1.0, -k * p);
+    for m in 0..M {
+        let p = pos[m];
+        row[m] = match pos[..m].iter().position(|q| q.to_bits() == p.to_bits()) {
+            Some(first) => row[first],
+            None => Complex32::from_polar(1.0, -k * p),
+        };
     }
 }
 
