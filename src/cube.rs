@@ -202,9 +202,18 @@ impl<'a, const N: usize, const K: usize, const M: usize> Cube<'a, N, K, M> {
         // Every |component| · 2^−e is now ≤ 32767 (e never clamps from above: a finite f32
         // is below 32767 · 2^125), so the rounding needs no saturation. Indices were checked
         // once above, so the loop is a strided store with no checks.
-        let scale = pow2(-e);
-        for (bin, v) in self.bins.iter_mut().zip(spectrum.iter()) {
-            bin[row][k] = [round_small(v.re * scale), round_small(v.im * scale)];
+        match rounding_magic(e) {
+            Some(magic) => {
+                for (bin, v) in self.bins.iter_mut().zip(spectrum.iter()) {
+                    bin[row][k] = [round_scaled(v.re, magic), round_scaled(v.im, magic)];
+                }
+            }
+            None => {
+                let scale = pow2(-e);
+                for (bin, v) in self.bins.iter_mut().zip(spectrum.iter()) {
+                    bin[row][k] = [round_small(v.re * scale), round_small(v.im * scale)];
+                }
+            }
         }
     }
 }
@@ -231,25 +240,30 @@ impl<const N: usize, const K: usize, const M: usize> Cube<'_, N, K, M> {
             }
         }
         let all_finite = peak.iter().all(|&p| f32::from_bits(p).is_finite());
-        if k >= K || rows.iter().any(|&r| usize::from(r) >= M) || !all_finite {
-            // Off the cube or an infinite component: one row at a time, checked.
+        let exponents: [i32; L] = core::array::from_fn(|l| block_exponent(f32::from_bits(peak[l])));
+        let magic: [Option<f32>; L] = core::array::from_fn(|l| rounding_magic(exponents[l]));
+        if k >= K
+            || rows.iter().any(|&r| usize::from(r) >= M)
+            || !all_finite
+            || magic.iter().any(Option::is_none)
+        {
+            // Off the cube, an infinite component or an absurd exponent: one row at a time,
+            // checked.
             for (l, &row) in rows.iter().enumerate() {
                 let spectrum: [Complex32; N] = core::array::from_fn(|n| spectra[n].lane(l));
                 self.store(usize::from(row), k, &spectrum);
             }
             return;
         }
-        let mut scale = [0.0f32; L];
         for l in 0..L {
-            let e = block_exponent(f32::from_bits(peak[l]));
-            self.exponent[usize::from(rows[l])][k] = e as i8;
-            scale[l] = pow2(-e);
+            self.exponent[usize::from(rows[l])][k] = exponents[l] as i8;
         }
+        let magic: [f32; L] = core::array::from_fn(|l| magic[l].unwrap_or(ROUNDING_MAGIC));
         for (bin, v) in self.bins.iter_mut().zip(spectra.iter()) {
             for l in 0..L {
                 bin[usize::from(rows[l])][k] = [
-                    round_small(v.re[l] * scale[l]),
-                    round_small(v.im[l] * scale[l]),
+                    round_scaled(v.re[l], magic[l]),
+                    round_scaled(v.im[l], magic[l]),
                 ];
             }
         }
@@ -393,6 +407,26 @@ const ROUNDING_MAGIC: f32 = 12_582_912.0;
 #[inline]
 fn stored_pow2(e: i8) -> f32 {
     f32::from_bits(((i32::from(e) + 127) as u32) << 23)
+}
+
+/// The largest block exponent whose [`rounding_magic`] is a finite `f32`.
+const MAGIC_LIMIT: i32 = 104;
+
+/// `1.5 · 2^(23+e)` for `−125 ≤ e ≤ MAGIC_LIMIT` (a normal `f32`, from its bits), else `None`.
+#[inline]
+fn rounding_magic(e: i32) -> Option<f32> {
+    (-EXPONENT_LIMIT..=MAGIC_LIMIT)
+        .contains(&e)
+        .then(|| f32::from_bits((((23 + e + 127) as u32) << 23) | 0x0040_0000))
+}
+
+/// [`round_small`]`(x · 2^−e)` bit for bit, with `magic` = [`rounding_magic`]`(e)`: one add
+/// and no multiply (issue 13). Scaling by a power of two commutes with rounding, so
+/// `x + 1.5·2^(23+e)` is `(x·2^−e + 1.5·2^23)·2^e` rounded; both sums have the exponent of
+/// their magic, so the difference of the bit patterns is the same integer.
+#[inline]
+fn round_scaled(x: f32, magic: f32) -> i16 {
+    ((x + magic).to_bits() as i32 - magic.to_bits() as i32) as i16
 }
 
 /// Round `|x| ≤ 32767.5` to the nearest integer, ties to even: one add, one move and one
@@ -605,6 +639,54 @@ mod tests {
                 assert_ne!(f[0], 1.0, "the uniform row's exponent is factored out");
             }
         }
+    }
+
+    /// The add-only rounding is the scale-then-round one bit for bit: every block exponent
+    /// it serves, values up to the block's full scale, exact ties, tiny and signed-zero values.
+    #[test]
+    fn round_scaled_is_round_small_of_the_scaled_value() {
+        let mut state = 12345u32;
+        for e in -EXPONENT_LIMIT..=MAGIC_LIMIT {
+            let magic = rounding_magic(e).expect("within the limit");
+            let scale = pow2(-e);
+            let unit = pow2(e);
+            let check = |m: f32| {
+                let x = m * unit;
+                assert_eq!(
+                    round_scaled(x, magic),
+                    round_small(x * scale),
+                    "e {e}, m {m}"
+                );
+            };
+            for m in [
+                0.0f32, -0.0, 0.5, -0.5, 1.5, 2.5, -2.5, 32767.0, -32767.0, 32766.5, 1e-30,
+            ] {
+                check(m);
+            }
+            for _ in 0..200 {
+                state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                check((state >> 8) as f32 / 256.0 - 32767.0);
+            }
+        }
+        assert!(rounding_magic(MAGIC_LIMIT + 1).is_none());
+        assert!(rounding_magic(-EXPONENT_LIMIT - 1).is_none());
+    }
+
+    /// An exponent beyond the add-only rounding's range takes the scaled path: the value is
+    /// stored to its block's precision.
+    #[test]
+    fn a_huge_chirp_is_stored_on_the_scaled_path() {
+        let mut storage = zero_storage::<8, 1, 1>();
+        let mut cube = Cube::<8, 1, 1>::new(&mut storage);
+        let mut spectrum = [Complex32::new(0.0, 0.0); 8];
+        spectrum[2] = Complex32::new(1.0e36, -3.0e35);
+        cube.store(0, 0, &spectrum);
+        let e = i32::from(cube.exponent[0][0]);
+        assert!(e > MAGIC_LIMIT);
+        let m = cube.bins[2][0][0];
+        assert!((f32::from(m[0]) - 1.0e36 * pow2(-e)).abs() <= 0.5, "{m:?}");
+        assert!((f32::from(m[1]) + 3.0e35 * pow2(-e)).abs() <= 0.5, "{m:?}");
+        assert!(m[0] > 16383);
     }
 
     const ZERO_C: Complex32 = Complex32::new(0.0, 0.0);
