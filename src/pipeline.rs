@@ -40,7 +40,7 @@ use crate::joint::{self, Source, MAX_SOURCES, NEIGHBOUR_BINS, SWEEPS};
 use crate::points::{power_db, ratio_db, Point, PointCloud};
 use crate::refine::parabolic_offset;
 use crate::ring;
-use crate::split::split_line;
+use crate::split::{split_line_from, start_vector};
 use crate::subarray::{smooth_line, SubArray};
 use crate::tdm;
 use crate::window::WindowKind;
@@ -406,6 +406,8 @@ pub struct Dbe<
     doppler_bin_mps: f32,
     /// The centro-symmetric sub-array for coherent targets (empty when the array has none).
     sub: SubArray<M>,
+    /// The coherent split's power-iteration start ([`crate::split::start_vector`]).
+    split_start: [Complex32; AZ],
 }
 
 impl<
@@ -448,6 +450,7 @@ impl<
             range_bin_m: 0.0,
             doppler_bin_mps: 0.0,
             sub: SubArray::NONE,
+            split_start: [ZERO; AZ],
         }
     }
 
@@ -491,6 +494,7 @@ impl<
         self.params = params;
         self.layout = layout;
         self.sub = SubArray::of(&layout, AZ);
+        self.split_start = start_vector();
         self.doppler_window = params.doppler_window.coefficients();
         self.range_bin_m = frontend.range_bin_m();
         self.doppler_bin_mps = frontend.doppler_bin_mps();
@@ -810,7 +814,7 @@ impl<
             let rotation = tdm::rotation::<K, TX, M>(&self.layout.slot, d);
             rotate_rows(&mut line, &azimuth_part::<M, AZ>(&rotation));
         }
-        split_line(&line, self.line_phase_per_mu)
+        split_line_from(&line, self.line_phase_per_mu, &self.split_start)
     }
 
     /// Whether detection `n` of a range bin's run shares its beam Doppler with another
