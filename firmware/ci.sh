@@ -11,3 +11,5 @@ cargo fmt --check
 cargo clippy --release --quiet -- -D warnings
 cargo clippy --release --quiet --target thumbv8m.main-none-eabihf -- -D warnings
 "$repo/firmware/budget.sh" --check
+# The per-function profile (README, Performance) keeps working: one image, a short table.
+(cd "$repo" && cargo xtask profile coloradar --top 5)

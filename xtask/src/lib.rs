@@ -47,6 +47,7 @@ mod error;
 pub mod ffi;
 pub mod frames;
 pub mod image;
+pub mod profile;
 pub mod protocol;
 
 pub use budget::*;

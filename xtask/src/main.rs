@@ -10,6 +10,7 @@
 //! cargo xtask header                 # regenerate ffi/dbe_radar.h (cbindgen); --check: exit 1 if stale
 //! cargo xtask c-example              # build ffi/c/example.c, run it on the TI capture
 //! cargo xtask c-firmware coloradar   # build the C firmware (arm-none-eabi-gcc), run it on QEMU
+//! cargo xtask profile coloradar      # instructions per function of one image (QEMU exec log)
 //! ```
 
 use std::process::ExitCode;
@@ -55,6 +56,16 @@ enum Command {
     },
     /// Build the host C example (ffi/c/example.c) and run it on the TI capture.
     CExample,
+    /// Instructions per source function of one image on the Cortex-M4F (QEMU's execution log,
+    /// addr2line): where the budget's stages spend them.
+    Profile {
+        /// The image: coloradar, iwr6843 (DBE chain), coloradar-fft, iwr6843-fft.
+        #[arg(default_value = "coloradar")]
+        image: String,
+        /// Rows of the table.
+        #[arg(long, default_value_t = 40)]
+        top: usize,
+    },
     /// Build the C firmware (ffi/c/firmware, arm-none-eabi-gcc) and run it on QEMU's Cortex-M4F.
     CFirmware {
         /// The frame: coloradar (simulated) or iwr6843 (the TI capture).
@@ -91,6 +102,14 @@ fn run(command: Command) -> Result<bool, FirmwareError> {
             xtask::check_tools()?;
             xtask::build(&layout)?;
             print!("{}", xtask::run(&layout, image, board)?);
+            Ok(true)
+        }
+        Command::Profile { image, top } => {
+            let image = Image::ALL
+                .into_iter()
+                .find(|i| i.name() == image)
+                .ok_or_else(|| usage(format!("unknown image `{image}` ({})", image_names())))?;
+            print!("{}", xtask::profile::profile(&layout, image, top)?);
             Ok(true)
         }
         Command::Frames => {
