@@ -316,15 +316,10 @@ impl<const N: usize, const K: usize, const M: usize> Frame<'_, N, K, M> {
             .zip(self.exponent.iter())
             .take(rows)
         {
-            for ((v, m), &e) in o.iter_mut().zip(row.iter()).zip(exps.iter()) {
-                let scale = stored_pow2(e);
-                *v = Complex32::new(f32::from(m[0]) * scale, f32::from(m[1]) * scale);
-            }
+            decode_row(row, exps, o);
         }
     }
-}
 
-impl<const N: usize, const K: usize, const M: usize> Frame<'_, N, K, M> {
     /// [`Self::leading_snapshots`] with the block exponent factored out of every row whose
     /// chirps share one: row `i` of `out` is the decoded row times `1 / f[i]`, `f` returned
     /// (`f[i] = 2^e` for such a row, decoded as bare mantissas with no multiply; 1 for a row
@@ -361,15 +356,19 @@ impl<const N: usize, const K: usize, const M: usize> Frame<'_, N, K, M> {
                         *v = Complex32::new(f32::from(m[0]), f32::from(m[1]));
                     }
                 }
-                None => {
-                    for ((v, m), &e) in o.iter_mut().zip(row.iter()).zip(exps.iter()) {
-                        let scale = stored_pow2(e);
-                        *v = Complex32::new(f32::from(m[0]) * scale, f32::from(m[1]) * scale);
-                    }
-                }
+                None => decode_row(row, exps, o),
             }
         }
         factor
+    }
+}
+
+/// One row's mantissas times their chirps' `2^e`, as `f32`.
+#[inline(always)]
+fn decode_row<const K: usize>(row: &[CubeSample; K], exps: &[i8; K], out: &mut [Complex32; K]) {
+    for ((v, m), &e) in out.iter_mut().zip(row.iter()).zip(exps.iter()) {
+        let scale = stored_pow2(e);
+        *v = Complex32::new(f32::from(m[0]) * scale, f32::from(m[1]) * scale);
     }
 }
 

@@ -7,8 +7,8 @@
 //!    is the same, only its layout may move), into `firmware/target/profile`;
 //! 2. QEMU runs it with `-d exec,nochain,in_asm`: every translated block is logged once with
 //!    its instructions (`IN:`), every execution of a block as a `Trace` line with its host
-//!    address and guest PC; the log goes through a named pipe, never to disk (a frame logs
-//!    some 3 GB);
+//!    address and guest PC; the log is read from QEMU's standard error as it comes, never
+//!    written to disk (a frame logs some 3 GB);
 //! 3. the first `Trace` after an `IN:` listing names the host address of that translation, so
 //!    each execution counts once for every instruction address of its block;
 //! 4. `arm-none-eabi-addr2line -f -i` names every address's chain of inlined functions; each
@@ -217,7 +217,7 @@ pub fn profile(layout: &Layout, image: Image, top: usize) -> Result<String, Firm
     run_command(cmd, std::time::Duration::from_secs(1800))?;
     let elf = dir.join(TARGET).join("release").join(image.name());
 
-    let (counts, output) = run_logged(&elf, &dir.join("qemu.fifo"))?;
+    let (counts, output) = run_logged(&elf)?;
     let mut pcs: Vec<u32> = counts.by_pc.keys().copied().collect();
     pcs.sort_unstable();
     let chains = symbolize(&elf, &pcs)?;
@@ -244,36 +244,39 @@ pub fn profile(layout: &Layout, image: Image, top: usize) -> Result<String, Firm
     Ok(text)
 }
 
-/// Run `elf` under QEMU with its execution log in the named pipe `fifo`; the counts and the
-/// firmware's standard output.
-fn run_logged(elf: &Path, fifo: &Path) -> Result<(PcCounts, String), FirmwareError> {
-    let _ = std::fs::remove_file(fifo);
-    let mut mkfifo = Command::new("mkfifo");
-    mkfifo.arg(fifo);
-    run_command(mkfifo, std::time::Duration::from_secs(10))?;
+/// Run `elf` under QEMU with its execution log on QEMU's standard error, read as it comes;
+/// the counts and the firmware's standard output (read on a thread of its own, so that
+/// neither pipe can fill up and stall QEMU).
+fn run_logged(elf: &Path) -> Result<(PcCounts, String), FirmwareError> {
     let mut args = Board::An386.qemu_args(elf);
-    args.extend(["-d", "exec,nochain,in_asm", "-D"].map(Into::into));
-    args.push(fifo.as_os_str().to_owned());
-    let child = Command::new(QEMU)
+    args.extend(["-d", "exec,nochain,in_asm"].map(Into::into));
+    let mut child = Command::new(QEMU)
         .args(&args)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .map_err(io_err(Path::new(QEMU), "start"))?;
-    // QEMU opens the log when it starts; reading blocks until then and ends when it exits.
-    let log = std::fs::File::open(fifo).map_err(io_err(fifo, "open"))?;
-    let counts = count_log(BufReader::with_capacity(1 << 20, log)).map_err(io_err(fifo, "read"))?;
-    let out = child
-        .wait_with_output()
-        .map_err(io_err(Path::new(QEMU), "wait for"))?;
-    let _ = std::fs::remove_file(fifo);
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    if !out.status.success() || !stdout.lines().any(|l| l == "E ok") {
+    let (Some(mut stdout), Some(stderr)) = (child.stdout.take(), child.stderr.take()) else {
+        return Err(FirmwareError::Usage("QEMU's pipes were not opened".into()));
+    };
+    let output = std::thread::spawn(move || {
+        let mut text = String::new();
+        std::io::Read::read_to_string(&mut stdout, &mut text).map(|_| text)
+    });
+    let counts = count_log(BufReader::with_capacity(1 << 20, stderr))
+        .map_err(io_err(Path::new(QEMU), "read the log of"));
+    let status = child.wait().map_err(io_err(Path::new(QEMU), "wait for"))?;
+    let stdout = output
+        .join()
+        .map_err(|_| FirmwareError::Usage("reading QEMU's output panicked".into()))?
+        .map_err(io_err(Path::new(QEMU), "read the output of"))?;
+    let counts = counts?;
+    if !status.success() || !stdout.lines().any(|l| l == "E ok") {
         return Err(FirmwareError::Command {
             command: format!("{QEMU} … {}", elf.display()),
-            status: out.status.to_string(),
-            stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+            status: status.to_string(),
+            stderr: stdout,
         });
     }
     Ok((counts, stdout))
