@@ -285,6 +285,29 @@ fn bench_prints_every_stage_of_both_chains() {
     assert!(fails(&["bench", "--frames", "0"]).contains("--frames 0"));
 }
 
+/// `dbe bench | head -1`: the reader closes the pipe after the first line; the command ends
+/// quietly and successfully instead of panicking on the next write.
+#[test]
+fn a_reader_that_closes_the_pipe_early_ends_the_command_quietly() -> TestResult {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_dbe"))
+        .args(["bench", "--frames", "1"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()?;
+    let stdout = child.stdout.take().ok_or("no stdout")?;
+    let mut first = String::new();
+    BufReader::new(stdout).read_line(&mut first)?;
+    // The reader is dropped here: every later write meets a closed pipe.
+    assert!(first.starts_with("scene `corridor`"), "{first}");
+    let out = child.wait_with_output()?;
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}: {stderr}", out.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    Ok(())
+}
+
 #[test]
 fn parameter_options_take_negative_numbers_and_refuse_absurd_values() -> TestResult {
     let tmp = tempfile::tempdir()?;

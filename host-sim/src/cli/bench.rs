@@ -44,13 +44,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         .map(|i| sim.frame(i).map(|f| f.adc))
         .collect::<Result<_, _>>()
         .context("simulating the frames")?;
-    println!(
+    outln!(
         "scene `{}`, ColoRadar preset, {} frames per chain, one thread; median wall time per frame",
-        scene.name, args.frames
-    );
-    println!();
-    println!("| chain | stage | ms | share |");
-    println!("|---|---|---:|---:|");
+        scene.name,
+        args.frames
+    )?;
+    outln!()?;
+    outln!("| chain | stage | ms | share |")?;
+    outln!("|---|---|---:|---:|")?;
     for chain in [Chain::Dbe, Chain::Fft] {
         let params = dbe_radar::Params::defaults(sensor.samples);
         let mut runner = CoreRunner::with_chain(&sensor, params, chain)?;
@@ -74,20 +75,20 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let ms = |d: Duration| d.as_secs_f64() * 1e3;
         let share = |d: Duration| 100.0 * d.as_secs_f64() / total.as_secs_f64();
         let ingest = median(&|t| t.ingest);
-        println!(
+        outln!(
             "| {name} | ingest (range FFT, block-float store) | {:.3} | {:.0} % |",
             ms(ingest),
             share(ingest)
-        );
+        )?;
         for (k, stage) in times[0].names.iter().enumerate() {
             let d = median(&|t| t.stages[k]);
-            println!("| {name} | {stage} | {:.3} | {:.0} % |", ms(d), share(d));
+            outln!("| {name} | {stage} | {:.3} | {:.0} % |", ms(d), share(d))?;
         }
-        println!(
+        outln!(
             "| {name} | **frame** ({:.0} frames/s) | **{:.3}** | |",
             1.0 / total.as_secs_f64(),
             ms(total)
-        );
+        )?;
     }
     Ok(())
 }

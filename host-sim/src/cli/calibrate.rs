@@ -95,6 +95,6 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
             );
         }
     }
-    print!("{out}");
+    out!("{out}")?;
     Ok(())
 }

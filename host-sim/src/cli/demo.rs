@@ -75,15 +75,17 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let scene = Scene::builtin_demo();
     let params = args.params.to_params(&sensor)?;
 
-    println!(
+    outln!(
         "1. simulate: scene `{}` ({}), {} frames",
-        scene.name, scene.description, args.frames
-    );
+        scene.name,
+        scene.description,
+        args.frames
+    )?;
     let frames = super::simulate::simulate(&scene, &sensor, args.frames)?;
     let seq = root.join("sequence");
     super::simulate::write(&seq, &scene, &sensor, &frames)?;
 
-    println!("2. process: DBE chain, core fed chirp by chirp");
+    outln!("2. process: DBE chain, core fed chirp by chirp")?;
     let opened = Input::open(&seq, None, None)?;
     let results = run_frames(
         &opened.input,
@@ -99,14 +101,14 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         &[Format::Coloradar, Format::Csv],
     )?;
 
-    println!("3. validate: core (f32, no_std) against the f64 reference implementation");
+    outln!("3. validate: core (f32, no_std) against the f64 reference implementation")?;
     let reports =
         super::validate::validate(&opened.input, &opened.sensor, &params, 0..args.frames)?;
-    let agree = super::validate::print(&reports);
+    let agree = super::validate::print(&reports)?;
 
-    println!("4. accuracy against ground truth (point targets; {MATCH_RADIUS_M} m match radius)");
+    outln!("4. accuracy against ground truth (point targets; {MATCH_RADIUS_M} m match radius)")?;
     let acc = accuracy(&sensor, &frames, &results);
-    println!(
+    outln!(
         "   detected {}/{} targets ({:.1} %), azimuth RMSE {:.2}°, elevation RMSE {:.2}°, Doppler RMSE {:.3} m/s",
         acc.detected,
         acc.targets,
@@ -114,11 +116,11 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         acc.azimuth_rmse_deg,
         acc.elevation_rmse_deg,
         acc.doppler_rmse_mps
-    );
-    println!(
+    )?;
+    outln!(
         "   {:.1} points per frame, {:.2} per frame farther than {MATCH_RADIUS_M} m from every object",
         acc.points_per_frame, acc.false_points_per_frame
-    );
+    )?;
 
     let mid = args.frames / 2;
     let plots = super::plot::plot_frame(
@@ -129,7 +131,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         &root.join("plots"),
         host_sim::plot::DYNAMIC_RANGE_DB,
     )?;
-    println!("5. plots of frame {mid}: {} files", plots.len());
+    outln!("5. plots of frame {mid}: {} files", plots.len())?;
 
     let summary = serde_json::json!({
         "frames": args.frames,
@@ -147,11 +149,11 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     )
     .context("writing the demo marker")?;
     staged.commit()?;
-    println!(
+    outln!(
         "done in {:.1} s → {} (sequence/, pointclouds/, plots/, summary.json)",
         start.elapsed().as_secs_f64(),
         args.out.display()
-    );
+    )?;
     if !agree {
         bail!("the core and the reference disagree on some frames (see step 3)");
     }

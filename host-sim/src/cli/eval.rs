@@ -38,10 +38,10 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     write_report(&eval, staged.path())
         .with_context(|| format!("writing the report into {}", args.out.display()))?;
     staged.commit()?;
-    println!(
+    outln!(
         "done in {:.1} s → {}",
         start.elapsed().as_secs_f64(),
         args.out.display()
-    );
+    )?;
     Ok(())
 }

@@ -1,5 +1,22 @@
 //! The `dbe` subcommands.
 
+/// `println!` that returns the write's error instead of panicking, for `?`: a reader that
+/// closes the pipe early (`dbe validate … | head`) ends the command quietly ([`closed_pipe`]).
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)
+    }};
+}
+
+/// `print!` that returns the write's error (see `outln!`).
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout().lock(), $($arg)*)
+    }};
+}
+
 pub mod bench;
 pub mod calibrate;
 pub mod demo;
@@ -147,6 +164,15 @@ impl ParamArgs {
         }
         Ok(p)
     }
+}
+
+/// Whether `e` is standard output's reader having gone away (`| head`): not a failure of the
+/// command, which has nothing left to say.
+pub fn closed_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// One line for an error and its causes, `outer: cause: …`, each cause once: an error whose

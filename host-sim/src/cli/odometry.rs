@@ -205,7 +205,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     }
     write("summary.json", &serde_json::to_string_pretty(&summary)?)?;
     staged.commit()?;
-    println!(
+    outln!(
         "{} frames, {} radar updates ({} gated), {} point updates on {} frames without one ({} gated) in {:.1} s{line} → {}",
         frames.len(),
         run.updates.applied,
@@ -215,6 +215,6 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         run.updates.points_gated,
         started.elapsed().as_secs_f64(),
         args.out.display()
-    );
+    )?;
     Ok(())
 }

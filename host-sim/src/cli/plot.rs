@@ -157,7 +157,7 @@ pub fn run(args: &PlotArgs) -> Result<()> {
         &args.out,
         args.dynamic_range_db,
     )? {
-        println!("{}", f.display());
+        outln!("{}", f.display())?;
     }
     Ok(())
 }

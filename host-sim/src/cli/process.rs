@@ -321,7 +321,7 @@ pub fn run(args: &ProcessArgs) -> Result<()> {
         .map(|r| r.stats.detection_overflow + r.stats.point_overflow)
         .sum();
     if !args.quiet {
-        println!(
+        outln!(
             "{} frames → {} points ({:.1} per frame) in {:.2} s ({:.0} frames/s) → {}",
             results.len(),
             points,
@@ -329,7 +329,7 @@ pub fn run(args: &ProcessArgs) -> Result<()> {
             elapsed_s,
             results.len() as f64 / elapsed_s.max(1e-9),
             args.out.display()
-        );
+        )?;
     }
     if points == 0 && !results.is_empty() {
         eprintln!(
@@ -341,7 +341,7 @@ pub fn run(args: &ProcessArgs) -> Result<()> {
         );
     }
     if skipped > 0 || overflow > 0 {
-        println!("note: {skipped} range bins skipped (covariance not positive definite), {overflow} detections/points over capacity");
+        outln!("note: {skipped} range bins skipped (covariance not positive definite), {overflow} detections/points over capacity")?;
     }
     Ok(())
 }

@@ -111,7 +111,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         .flat_map(|f| &f.truth.objects)
         .map(|o| o.ghosts)
         .sum();
-    println!(
+    outln!(
         "scene `{}`: {} frames ({} scatterers per frame on average{}) → {}",
         scene.name,
         frames.len(),
@@ -122,6 +122,6 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             String::new()
         },
         args.out.display()
-    );
+    )?;
     Ok(())
 }

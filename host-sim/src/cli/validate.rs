@@ -56,9 +56,9 @@ pub fn validate(
 }
 
 /// Print the table; `true` when every frame agrees.
-pub fn print(reports: &[(usize, FrameReport)]) -> bool {
-    print!("{}", format_indexed_table(reports));
-    reports.iter().all(|(_, r)| r.agreement.is_match())
+pub fn print(reports: &[(usize, FrameReport)]) -> Result<bool> {
+    out!("{}", format_indexed_table(reports))?;
+    Ok(reports.iter().all(|(_, r)| r.agreement.is_match()))
 }
 
 /// `dbe validate`.
@@ -68,7 +68,7 @@ pub fn run(args: &ValidateArgs) -> Result<()> {
     let params = args.params.to_params(&opened.sensor)?;
     eprintln!("calibration: {}", opened.calib_source);
     let reports = validate(&opened.input, &opened.sensor, &params, range)?;
-    if !print(&reports) {
+    if !print(&reports)? {
         bail!("the core and the reference disagree (see the table above)");
     }
     Ok(())
