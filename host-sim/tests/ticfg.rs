@@ -108,6 +108,16 @@ fn setups_the_chains_cannot_run_are_refused_naming_the_line() -> TestResult {
             "profileCfg 0 77 110 6 20 0 0 100",
             "expected at least 11",
         ),
+        (
+            "dfeDataOutputMode 1",
+            "dfeDataOutputMode 3",
+            "not advanced frames (advFrameCfg, subFrameCfg)",
+        ),
+        (
+            "frameCfg 0 2 128 0 100 1 0",
+            "advFrameCfg 2 0 0 1 0\nsubFrameCfg 0 0 0 3 128 100 0 1 1 100",
+            "advFrameCfg: advanced frames",
+        ),
     ];
     for (from, to, expected) in cases {
         let path = dir.path().join("bad.cfg");

@@ -9,12 +9,13 @@
 //! | `chirpCfg start end profile fVar slopeVar idleVar adcVar txMask` | one TX bit per chirp | the TDM order: slot `t` = the TX of chirp `chirpStart + t` |
 //! | `frameCfg chirpStart chirpEnd loops …` | chirps and loops | TX slots per loop, loops per frame |
 //! | `compRangeBiasAndRxChanPhase bias re im …` | range bias (m), one (Re, Im) factor per virtual antenna | `range_bias_m`, `channel_gains` (none when every factor is 1) |
+//! | `dfeDataOutputMode mode` | 1 = frames | refused otherwise (continuous wave, advanced frames); `advFrameCfg` and `subFrameCfg` likewise |
 //!
 //! Lines starting with `%` are comments; other commands are ignored. What the chains cannot run
 //! is an error naming the line: several profiles, a chirp without a `chirpCfg`, a chirp with no
 //! or several TX (simultaneous transmission / BPM), a TX used twice in a loop or not enabled,
-//! chirp variations, real ADC output. The board gives the antenna positions (half-wavelength
-//! units) and the frequency they are measured at.
+//! chirp variations, real ADC output, advanced frames. The board gives the antenna positions
+//! (half-wavelength units) and the frequency they are measured at.
 //!
 //! `compRangeBiasAndRxChanPhase` is read as TI's demos read it: one (Re, Im) pair per physical
 //! antenna pair of the board, `TX·4 + RX` by physical index (TX0 RX0, TX0 RX1, …, all of them
@@ -196,6 +197,37 @@ pub fn load_ti_cfg(path: &Path, board: Board) -> Result<SensorConfig, IoError> {
             }
             "compRangeBiasAndRxChanPhase" => {
                 comp = Some((line, fields(path, line, cmd, rest, 3)?));
+            }
+            // Mode 1 is frames of one frameCfg; 2 (continuous wave) has no chirps, 3 (advanced
+            // frames) interleaves sub-frames of different chirps and profiles.
+            "dfeDataOutputMode" => {
+                let v = fields(path, line, cmd, rest, 1)?;
+                if v[0] != 1.0 {
+                    return Err(IoError::syntax(
+                        path,
+                        line,
+                        format!(
+                            "dfeDataOutputMode {}: the chains run frames of one frameCfg \
+                             (dfeDataOutputMode 1), not {}",
+                            v[0],
+                            match v[0] {
+                                2.0 => "continuous-wave mode",
+                                3.0 => "advanced frames (advFrameCfg, subFrameCfg)",
+                                _ => "an unknown mode",
+                            }
+                        ),
+                    ));
+                }
+            }
+            "advFrameCfg" | "subFrameCfg" => {
+                return Err(IoError::syntax(
+                    path,
+                    line,
+                    format!(
+                        "{cmd}: advanced frames (sub-frames of different chirps) are not \
+                         supported; the chains run frames of one frameCfg"
+                    ),
+                ));
             }
             _ => {}
         }
