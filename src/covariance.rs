@@ -21,18 +21,20 @@ pub const fn zero<const D: usize>() -> Matrix<D> {
 /// load of `x_i[k]` serves four products and every product is four real multiply–adds into
 /// its own accumulators (on the Cortex-M4F 21 % fewer instructions than one pair per pass).
 ///
-/// On a host the same sums are formed four columns at a time in SIMD lanes
+/// On an x86-64 or AArch64 host the same sums are formed four columns at a time in SIMD lanes
 /// ([`covariance_lanes`]), bit-identical: every entry is the same chain of `f32` operations.
+/// Other targets (Cortex-M, and microcontrollers of other architectures, whose stacks would
+/// not want its 16 KiB transposed copy) take the row path.
 pub fn covariance<const D: usize, const K: usize>(snapshots: &[[Complex32; K]], r: &mut Matrix<D>) {
-    #[cfg(not(target_arch = "arm"))]
+    #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
     if covariance_lanes(snapshots, r) {
         return;
     }
     covariance_rows(snapshots, r);
 }
 
-/// [`covariance`] one entry block at a time (the Cortex-M path, and the host's for more than
-/// [`LANE_BLOCKS`]` · 4` rows).
+/// [`covariance`] one entry block at a time (the microcontroller path, and the host's for more
+/// than 16 rows).
 fn covariance_rows<const D: usize, const K: usize>(
     snapshots: &[[Complex32; K]],
     r: &mut Matrix<D>,
@@ -81,15 +83,15 @@ fn covariance_rows<const D: usize, const K: usize>(
 }
 
 /// SIMD width of [`covariance_lanes`] (one SSE register of `f32`).
-#[cfg(not(target_arch = "arm"))]
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
 const LANES: usize = 4;
 
 /// Column blocks [`covariance_lanes`] holds: up to 16 rows.
-#[cfg(not(target_arch = "arm"))]
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
 const LANE_BLOCKS: usize = 4;
 
 /// Snapshots loop-major, real or imaginary parts, four rows per block: `[k][m / 4][m % 4]`.
-#[cfg(not(target_arch = "arm"))]
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
 type Split<const K: usize> = [[[f32; LANES]; LANE_BLOCKS]; K];
 
 /// [`covariance`] on a host, four columns `j` per SIMD operation: the snapshots are transposed
@@ -101,7 +103,7 @@ type Split<const K: usize> = [[[f32; LANES]; LANE_BLOCKS]; K];
 /// im −= x_i.re·x_j.im`; on the diagonal `im` cancels to exactly 0), so the result is
 /// bit-identical; 2.2× faster for 8 rows of 128 loops, 2.4× for 12. Returns `false`, leaving
 /// `r` alone, for more rows than it holds.
-#[cfg(not(target_arch = "arm"))]
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
 fn covariance_lanes<const D: usize, const K: usize>(
     snapshots: &[[Complex32; K]],
     r: &mut Matrix<D>,
@@ -162,7 +164,7 @@ fn covariance_lanes<const D: usize, const K: usize>(
 
 /// The sums of rows `i` and `i + 1` (`i` even) with the `B` column blocks from `b0`:
 /// `[re of row i, im of row i, re of row i + 1, im of row i + 1][block][lane]`.
-#[cfg(not(target_arch = "arm"))]
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
 #[inline(always)]
 fn row_pair<const B: usize, const K: usize>(
     re: &Split<K>,
