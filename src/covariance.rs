@@ -22,7 +22,7 @@ pub const fn zero<const D: usize>() -> Matrix<D> {
 /// its own accumulators (on the Cortex-M4F 21 % fewer instructions than one pair per pass).
 ///
 /// On an x86-64 or AArch64 host the same sums are formed four columns at a time in SIMD lanes
-/// ([`covariance_lanes`]), bit-identical: every entry is the same chain of `f32` operations.
+/// (`covariance_lanes`), bit-identical: every entry is the same chain of `f32` operations.
 /// Other targets (Cortex-M, and microcontrollers of other architectures, whose stacks would
 /// not want its 16 KiB transposed copy) take the row path.
 pub fn covariance<const D: usize, const K: usize>(snapshots: &[[Complex32; K]], r: &mut Matrix<D>) {
