@@ -263,24 +263,36 @@ impl Sequence {
 }
 
 /// File order `[tx][rx][chirp][sample][I,Q]` → [`AdcFrame`]. `bytes` has the right length.
+///
+/// The frame is written in its own (TDM) order, each channel's chirp copied whole from its
+/// place in the file: no zeroing pass and no per-sample bookkeeping (this loop took a tenth
+/// of `dbe process`'s time before).
 fn decode_frame(bytes: &[u8], s: &SensorConfig) -> AdcFrame {
-    let mut frame = AdcFrame::zeros(s.samples, s.loops, s.num_tx, s.num_rx);
-    let mut words = bytes
-        .chunks_exact(2)
-        .map(|b| i16::from_le_bytes([b[0], b[1]]));
-    for t in 0..s.num_tx {
-        for r in 0..s.num_rx {
-            for k in 0..s.loops {
-                let start = frame.index(k, t, r, 0);
-                for sample in &mut frame.data[start..start + s.samples] {
-                    let i = words.next().unwrap_or(0);
-                    let q = words.next().unwrap_or(0);
-                    *sample = [i, q];
-                }
+    let chirp_bytes = 4 * s.samples;
+    let mut data = Vec::with_capacity(s.samples * s.loops * s.num_tx * s.num_rx);
+    for k in 0..s.loops {
+        for t in 0..s.num_tx {
+            for r in 0..s.num_rx {
+                let at = ((t * s.num_rx + r) * s.loops + k) * chirp_bytes;
+                let chirp = bytes.get(at..at + chirp_bytes).unwrap_or(&[]);
+                data.extend(chirp.chunks_exact(4).map(|b| {
+                    [
+                        i16::from_le_bytes([b[0], b[1]]),
+                        i16::from_le_bytes([b[2], b[3]]),
+                    ]
+                }));
             }
         }
     }
-    frame
+    // Only a short `bytes` (the caller checks the length) leaves samples to fill.
+    data.resize(s.samples * s.loops * s.num_tx * s.num_rx, [0, 0]);
+    AdcFrame {
+        samples: s.samples,
+        loops: s.loops,
+        tx: s.num_tx,
+        rx: s.num_rx,
+        data,
+    }
 }
 
 /// [`AdcFrame`] → file order `[tx][rx][chirp][sample][I,Q]`.
