@@ -285,6 +285,38 @@ fn bench_prints_every_stage_of_both_chains() {
     assert!(fails(&["bench", "--frames", "0"]).contains("--frames 0"));
 }
 
+/// A recording with damaged frames: the frames are read ahead of the workers and processed in
+/// any order, but the error is the first damaged frame's, and no output is left behind.
+#[test]
+fn process_names_the_first_damaged_frame_and_writes_nothing() -> TestResult {
+    let tmp = tempfile::tempdir()?;
+    let seq = tmp.path().join("seq");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/single_target.toml");
+    ok(&[
+        "simulate",
+        "--scene",
+        s(&scene),
+        "--frames",
+        "6",
+        "--out",
+        s(&seq),
+    ]);
+    let data = seq.join("single_chip/adc_samples/data");
+    for damaged in [4, 2] {
+        let f = data.join(format!("frame_{damaged}.bin"));
+        let bytes = std::fs::read(&f)?;
+        std::fs::write(&f, &bytes[..bytes.len() - 2])?;
+    }
+    let out = tmp.path().join("points");
+    let err = fails(&["process", s(&seq), "--out", s(&out), "--quiet"]);
+    assert!(
+        err.contains("frame_2.bin") && !err.contains("frame_4.bin"),
+        "{err}"
+    );
+    assert!(!out.exists(), "output left behind");
+    Ok(())
+}
+
 /// `dbe bench | head -1`: the reader closes the pipe after the first line; the command ends
 /// quietly and successfully instead of panicking on the next write.
 #[test]

@@ -100,28 +100,49 @@ pub fn run_frames(
         Some(l) => progress(range.len() as u64, l),
         None => ProgressBar::hidden(),
     };
-    let results: Vec<Result<FrameResult>> = range
-        .into_par_iter()
-        .progress_with(bar.clone())
-        .map_init(
-            || CoreRunner::with_chain(sensor, *params, chain),
-            |runner, i| {
-                let runner = runner.as_mut().map_err(|e| anyhow::anyhow!("{e}"))?;
-                let frame = input.frame(i)?;
-                let out = runner
-                    .process(&frame)
-                    .with_context(|| format!("frame {i}"))?;
-                Ok(FrameResult {
-                    index: i,
-                    time_s: input.time(i),
-                    points: out.points,
-                    stats: out.stats,
-                })
-            },
-        )
-        .collect();
+    // One thread reads the frames in order, a few ahead of the workers, so that reading a
+    // recording that is not in the page cache overlaps the processing instead of stalling a
+    // worker (200 ColoRadar frames on 2 cores, read from disk: 564–717 frames/s with the
+    // workers reading, the speed of cached input with the reader).
+    let ahead = 2 * rayon::current_num_threads();
+    let mut results: Vec<(usize, Result<FrameResult>)> = std::thread::scope(|scope| {
+        let (send, frames) = std::sync::mpsc::sync_channel(ahead);
+        scope.spawn(move || {
+            for i in range {
+                // The receiver is gone only when the workers have stopped: stop reading.
+                if send.send((i, input.frame(i))).is_err() {
+                    break;
+                }
+            }
+        });
+        frames
+            .into_iter()
+            .par_bridge()
+            .progress_with(bar.clone())
+            .map_init(
+                || CoreRunner::with_chain(sensor, *params, chain),
+                |runner, (i, frame)| {
+                    let result = (|| {
+                        let runner = runner.as_mut().map_err(|e| anyhow::anyhow!("{e}"))?;
+                        let out = runner
+                            .process(&frame?)
+                            .with_context(|| format!("frame {i}"))?;
+                        Ok(FrameResult {
+                            index: i,
+                            time_s: input.time(i),
+                            points: out.points,
+                            stats: out.stats,
+                        })
+                    })();
+                    (i, result)
+                },
+            )
+            .collect()
+    });
     bar.finish_and_clear();
-    results.into_iter().collect()
+    // Frame order, and the first error in frame order, as a sequential run would give.
+    results.sort_by_key(|(i, _)| *i);
+    results.into_iter().map(|(_, r)| r).collect()
 }
 
 /// A progress bar on stderr (hidden when stderr is not a terminal).
