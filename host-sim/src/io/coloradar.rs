@@ -265,8 +265,8 @@ impl Sequence {
 /// File order `[tx][rx][chirp][sample][I,Q]` → [`AdcFrame`]. `bytes` has the right length.
 ///
 /// The frame is written in its own (TDM) order, each channel's chirp copied whole from its
-/// place in the file: no zeroing pass and no per-sample bookkeeping (this loop took a tenth
-/// of `dbe process`'s time before).
+/// place in the file: no zeroing pass and no per-sample bookkeeping (this loop took 7 % of
+/// `dbe process`'s time before).
 fn decode_frame(bytes: &[u8], s: &SensorConfig) -> AdcFrame {
     let chirp_bytes = 4 * s.samples;
     let mut data = Vec::with_capacity(s.samples * s.loops * s.num_tx * s.num_rx);
@@ -274,18 +274,19 @@ fn decode_frame(bytes: &[u8], s: &SensorConfig) -> AdcFrame {
         for t in 0..s.num_tx {
             for r in 0..s.num_rx {
                 let at = ((t * s.num_rx + r) * s.loops + k) * chirp_bytes;
-                let chirp = bytes.get(at..at + chirp_bytes).unwrap_or(&[]);
-                data.extend(chirp.chunks_exact(4).map(|b| {
-                    [
-                        i16::from_le_bytes([b[0], b[1]]),
-                        i16::from_le_bytes([b[2], b[3]]),
-                    ]
-                }));
+                match bytes.get(at..at + chirp_bytes) {
+                    Some(chirp) => data.extend(chirp.chunks_exact(4).map(|b| {
+                        [
+                            i16::from_le_bytes([b[0], b[1]]),
+                            i16::from_le_bytes([b[2], b[3]]),
+                        ]
+                    })),
+                    // Beyond a short `bytes` (the caller checks the length): zeros, in place.
+                    None => data.extend(std::iter::repeat_n([0, 0], s.samples)),
+                }
             }
         }
     }
-    // Only a short `bytes` (the caller checks the length) leaves samples to fill.
-    data.resize(s.samples * s.loops * s.num_tx * s.num_rx, [0, 0]);
     AdcFrame {
         samples: s.samples,
         loops: s.loops,
