@@ -3,7 +3,7 @@
 //! ```text
 //! push_chirp : TDM order check → per RX: DC removal, window, range FFT (range.rs)
 //!              → − coupling calibration of its cube row → × channel gain of the row
-//!              → Cube[bin][row][loop]
+//!              → Cube[bin][loop][row]
 //! frame      : all K·TX chirps in order? → Frame (else FrameError)
 //! ```
 //!

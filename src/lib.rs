@@ -24,7 +24,7 @@
 //! let frontend = p::frontend().unwrap();
 //! let dbe = p::dbe(&frontend).unwrap();
 //! let mut storage: Box<p::CubeStorage> =
-//!     vec![[[[0; 2]; p::LOOPS]; p::VIRTUAL]; p::SAMPLES].try_into().unwrap();
+//!     vec![[[[0; 2]; p::VIRTUAL]; p::LOOPS]; p::SAMPLES].try_into().unwrap();
 //! let mut cube = p::Cube::new(&mut storage);
 //! let mut work = Box::new(p::Workspace::new());
 //! let mut cloud = Box::new(p::PointCloud::new());

@@ -1,7 +1,7 @@
 //! The DBE chain (spec §3), stage by stage.
 //!
 //! ```text
-//! Frontend::push_chirp : DC removal, window, range FFT ──▶ Cube[bin][row][loop]  (frontend.rs)
+//! Frontend::push_chirp : DC removal, window, range FFT ──▶ Cube[bin][loop][row]  (frontend.rs)
 //! Frontend::frame      : all chirps in order? ──▶ Frame
 //! Dbe::azimuth_map     : per kept range bin b: R_b = X·Xᴴ/K of the AZ azimuth rows,
 //!   (Chain::map)         FB averaging, loading ──▶ RA[b][i] = Capon power      (capon.rs)

@@ -60,7 +60,7 @@ fn stages(c: &mut Criterion) {
     let frontend = p::frontend().expect("defaults");
     let dbe = Box::new(p::dbe(&frontend).expect("defaults"));
     let fft = Box::new(p::fft_chain(&frontend).expect("defaults"));
-    let mut storage: Box<p::CubeStorage> = vec![[[[0; 2]; p::LOOPS]; p::VIRTUAL]; p::SAMPLES]
+    let mut storage: Box<p::CubeStorage> = vec![[[[0; 2]; p::VIRTUAL]; p::LOOPS]; p::SAMPLES]
         .into_boxed_slice()
         .try_into()
         .expect("SAMPLES range bins");

@@ -463,7 +463,7 @@ impl<
         }
         let chain = C::build(&frontend, &params).map_err(config)?;
         let storage: Box<CubeStorage<N, K, M>> =
-            match vec![[[[0; 2]; K]; M]; N].into_boxed_slice().try_into() {
+            match vec![[[[0; 2]; M]; K]; N].into_boxed_slice().try_into() {
                 Ok(storage) => storage,
                 Err(_) => unreachable!("vec![_; N] holds exactly N range bins"),
             };

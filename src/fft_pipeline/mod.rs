@@ -239,7 +239,7 @@ impl<const N: usize, const K: usize, const M: usize, const DET: usize> Default
 /// let frontend = p::frontend().unwrap();
 /// let chain = p::fft_chain(&frontend).unwrap();
 /// let mut storage: Box<p::CubeStorage> =
-///     vec![[[Default::default(); p::LOOPS]; p::VIRTUAL]; p::SAMPLES].try_into().unwrap();
+///     vec![[[Default::default(); p::VIRTUAL]; p::LOOPS]; p::SAMPLES].try_into().unwrap();
 /// let mut cube = p::Cube::new(&mut storage);
 /// let mut work = Box::new(p::FftWorkspace::new());
 /// let mut cloud = Box::new(p::PointCloud::new());

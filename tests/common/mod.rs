@@ -140,7 +140,7 @@ pub fn id(i: usize, tx: usize) -> ChirpId {
 /// Heap storage for a cube (never on the test thread's stack).
 pub fn storage<const N: usize, const K: usize, const M: usize>(
 ) -> Box<dbe_radar::cube::CubeStorage<N, K, M>> {
-    let v = vec![[[[0i16; 2]; K]; M]; N];
+    let v = vec![[[[0i16; 2]; M]; K]; N];
     match v.into_boxed_slice().try_into() {
         Ok(b) => b,
         Err(_) => unreachable!("length is N"),
