@@ -1,5 +1,6 @@
-//! Complex FFT of a compile-time size: radix-4 decimation in time (one radix-2 stage first
-//! when `log2 N` is odd), twiddles from one table computed at compile time.
+//! Complex FFT of a compile-time size: radix-4 decimation in time (when `log2 N` is odd, a
+//! radix-2 stage first, fused with the first radix-4 stage into one radix-8 pass), twiddles
+//! from one table computed at compile time.
 //!
 //! Normalisation: none. `X[k] = Σ_n x[n] · exp(−j·2π·k·n/N)`, bins in natural order
 //! (bin 0 = DC, bin `N/2..N` the negative frequencies, not fftshifted).
@@ -88,6 +89,8 @@ pub trait FftValue: Copy + Add<Output = Self> + Sub<Output = Self> {
     fn times(self, w: Complex32) -> Self;
     /// `(self + (−j)·b, self − (−j)·b)`.
     fn plus_minus_neg_j(self, b: Self) -> (Self, Self);
+    /// `(−j)·self = (im, −re)`: `self.times(−j)` up to the sign of an exact zero.
+    fn times_neg_j(self) -> Self;
 }
 
 impl FftValue for Complex32 {
@@ -103,6 +106,11 @@ impl FftValue for Complex32 {
             Complex32::new(self.re + b.im, self.im - b.re),
             Complex32::new(self.re - b.im, self.im + b.re),
         )
+    }
+
+    #[inline(always)]
+    fn times_neg_j(self) -> Self {
+        Complex32::new(self.im, -self.re)
     }
 }
 
@@ -177,6 +185,16 @@ impl<const L: usize> FftValue for Lanes<L> {
         }
         (p, m)
     }
+
+    #[inline(always)]
+    fn times_neg_j(self) -> Self {
+        let mut out = self;
+        for l in 0..L {
+            out.re[l] = self.im[l];
+            out.im[l] = -self.re[l];
+        }
+        out
+    }
 }
 
 /// Bit reversal of `i` over `bits` bits (`1 ≤ bits ≤ 31`).
@@ -218,15 +236,14 @@ pub fn fft_in_place<const N: usize>(buf: &mut [Complex32; N]) {
 pub fn fft_from<T: FftValue, const N: usize>(out: &mut [T; N], x: impl Fn(usize) -> T) {
     const { assert!(N.is_power_of_two() && N >= 2 && N <= MAX_FFT_SIZE) };
     let bits = N.trailing_zeros();
-    let l = if bits % 2 == 1 {
-        // One radix-2 stage: positions i, i + 1 hold x(r), x(r + N/2), r = rev(i).
-        for (i, pair) in out.chunks_exact_mut(2).enumerate() {
-            let r = reverse(2 * i, bits);
-            let (a, b) = (x(r), x(r + N / 2));
-            pair[0] = a + b;
-            pair[1] = a - b;
-        }
+    let l = if N == 2 {
+        let (a, b) = (x(0), x(1));
+        out[0] = a + b;
+        out[1] = a - b;
         2
+    } else if bits % 2 == 1 {
+        first_radix8_pass(out, &x, bits);
+        8
     } else {
         // One radix-4 stage without twiddles: positions i..i + 4 hold
         // x(r), x(r + N/2), x(r + N/4), x(r + 3N/4).
@@ -241,6 +258,38 @@ pub fn fft_from<T: FftValue, const N: usize>(out: &mut [T; N], x: impl Fn(usize)
     radix4_stages(out, l);
 }
 
+/// The first two stages of an odd-`log2 N` transform (`N ≥ 8`) in one pass, eight outputs at a
+/// time held in registers: a radix-2 stage (pair `i` = `x(r) ± x(r + N/2)`, `r = rev(2i)`)
+/// and the radix-4 stage of length-2 sub-transforms, whose twiddles are `W_8^{m·k}`, `k < 2`.
+/// Its `k = 0` butterfly has only unit twiddles and its `k = 1` butterfly the factor
+/// `W_8^2 = −j` for residue 2, which are not multiplied: the same values as the two separate
+/// stages up to the sign of an exact zero, with one pass over the buffer fewer (issue 13).
+#[inline(always)]
+fn first_radix8_pass<T: FftValue, const N: usize>(
+    out: &mut [T; N],
+    x: &impl Fn(usize) -> T,
+    bits: u32,
+) {
+    // W_8^1 and W_8^3 (the table's `W^{MAX/8}`, `W^{3·MAX/8}`).
+    let (w1, w3) = (TWIDDLES[MAX_FFT_SIZE / 8], TWIDDLES[3 * MAX_FFT_SIZE / 8]);
+    for (g, oct) in out.chunks_exact_mut(8).enumerate() {
+        let pair = |i: usize| {
+            let r = reverse(2 * i, bits);
+            let (a, b) = (x(r), x(r + N / 2));
+            (a + b, a - b)
+        };
+        let (p0, p1, p2, p3) = (
+            pair(4 * g),
+            pair(4 * g + 1),
+            pair(4 * g + 2),
+            pair(4 * g + 3),
+        );
+        // Blocks of the length-8 group hold residues 0, 2, 1, 3 (see `radix4_stages`).
+        let [y0, y2, y4, y6] = butterfly4(p0.0, p2.0, p1.0, p3.0);
+        let [y1, y3, y5, y7] = butterfly4(p0.1, p2.1.times(w1), p1.1.times_neg_j(), p3.1.times(w3));
+        oct.copy_from_slice(&[y0, y1, y2, y3, y4, y5, y6, y7]);
+    }
+}
 /// The 4-point DFT `X[q] = Σ_m t_m · (−j)^{mq}`.
 #[inline(always)]
 fn butterfly4<T: FftValue>(t0: T, t1: T, t2: T, t3: T) -> [T; 4] {
