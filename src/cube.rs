@@ -399,12 +399,14 @@ fn decode_row<const K: usize, const M: usize>(
 /// [`Cube::store`] takes to its checked path).
 #[inline]
 fn peak_magnitude_bits<const N: usize>(spectrum: &[Complex32; N]) -> u32 {
-    const ABS: u32 = 0x7fff_ffff;
+    // The patterns shifted left by one: the shift drops the sign bit and keeps the order of
+    // the other 31, and on the Cortex-M4 it folds into the compare and the conditional move
+    // (four instructions per component instead of five with a mask).
     let mut peak = 0u32;
     for v in spectrum.iter() {
-        peak = peak.max(v.re.to_bits() & ABS).max(v.im.to_bits() & ABS);
+        peak = peak.max(v.re.to_bits() << 1).max(v.im.to_bits() << 1);
     }
-    peak
+    peak >> 1
 }
 
 /// Block exponents stay within ±125, so `2^e` and `2^−e` are normal `f32` values.
