@@ -3,9 +3,10 @@
 //! Layout: `cube[range bin][loop][row]` with rows in [`crate::config::ArrayLayout`] order, so
 //! one range bin's `K × M` snapshot block is contiguous, the first `AZ` rows of each loop are
 //! the azimuth line, and a chirp's RX channels (consecutive rows) land side by side: while a
-//! frame is ingested, the cube lines being written are one or two per range bin (a few
-//! KiB, cache-resident on a host) instead of one per range bin and row. The storage is caller-owned (a `static` on firmware, a `Box` on a host), so
-//! no megabyte-sized value ever passes through the stack.
+//! frame is ingested, the cube lines being written are one or two per range bin (a few KiB,
+//! cache-resident on a host) instead of one per range bin and row (`dbe bench`: host ingest
+//! 0.99 → 0.74 ms per ColoRadar frame). The storage is caller-owned (a `static` on firmware,
+//! a `Box` on a host), so no megabyte-sized value ever passes through the stack.
 //!
 //! Precision: block floating point per chirp. Each range-FFT output (one row, one loop) is
 //! stored as complex i16 mantissas with one shared exponent `e` (in [`Cube`]), the smallest
