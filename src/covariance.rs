@@ -17,9 +17,11 @@ pub const fn zero<const D: usize>() -> Matrix<D> {
 /// (the upper triangle is computed and mirrored; the diagonal is real). Rows missing from
 /// `snapshots` count as zero.
 ///
-/// Each row `i` is multiplied with up to four later rows in one pass over the loops, so one
-/// load of `x_i[k]` serves four products and every product is four real multiply–adds into
-/// its own accumulators (on the Cortex-M4F 21 % fewer instructions than one pair per pass).
+/// Two rows `i`, `i + 1` are multiplied with up to four later rows in one pass over the loops,
+/// so one load of `x_j[k]` serves two products and one of `x_i[k]` four, and every product is
+/// four real multiply–adds into its own accumulators (on the Cortex-M4F: one row against four
+/// columns took 21 % fewer instructions than one pair per pass, two rows a further 4 % of the
+/// azimuth stage, `cargo xtask budget`).
 ///
 /// On an x86-64 or AArch64 host the same sums are formed four columns at a time in SIMD lanes
 /// (`covariance_lanes`), bit-identical: every entry is the same chain of `f32` operations.
@@ -49,37 +51,72 @@ fn covariance_rows<const D: usize, const K: usize>(
             p += v.im * v.im;
         }
         r[i][i] = Complex32::new(p * scale, 0.0);
-        let mut j = i + 1;
+    }
+    let mut put = |i: usize, j: usize, acc: Complex32| {
+        let v = acc * scale;
+        r[i][j] = v;
+        r[j][i] = v.conj();
+    };
+    // Rows `i`, `i + 1` (`i` even) against up to four later columns per pass over the loops:
+    // one load of each column's `x_j[k]` serves both rows.
+    for i in (0..rows.len()).step_by(2) {
+        let xi = &rows[i];
+        let Some(xn) = rows.get(i + 1) else {
+            break;
+        };
+        put(i, i + 1, cross(xi, [xn])[0]);
+        let mut j = i + 2;
         while j < rows.len() {
-            let later = &rows[j..];
-            let mut block = [Complex32::new(0.0, 0.0); 4];
-            let b = match later {
-                [a, b, c, d, ..] => {
-                    block = cross(xi, [a, b, c, d]);
-                    4
+            // Blocks of four, then two, then one (three monomorphic kernels: flash).
+            let (b, [first, second]) = match &rows[j..] {
+                [a, b, c, d, ..] => (4, cross_pair(xi, xn, [a, b, c, d])),
+                [a, b, ..] => {
+                    let [f, s] = cross_pair(xi, xn, [a, b]);
+                    (2, [pad(f), pad(s)])
                 }
-                [a, b, c] => {
-                    block[..3].copy_from_slice(&cross(xi, [a, b, c]));
-                    3
-                }
-                [a, b] => {
-                    block[..2].copy_from_slice(&cross(xi, [a, b]));
-                    2
-                }
-                [a] => {
-                    block[..1].copy_from_slice(&cross(xi, [a]));
-                    1
-                }
+                [a] => (1, [pad(cross(xi, [a])), pad(cross(xn, [a]))]),
                 [] => break,
             };
-            for (o, acc) in block.iter().take(b).enumerate() {
-                let v = *acc * scale;
-                r[i][j + o] = v;
-                r[j + o][i] = v.conj();
+            for o in 0..b {
+                put(i, j + o, first[o]);
+                put(i + 1, j + o, second[o]);
             }
             j += b;
         }
     }
+}
+
+/// `v` in the first entries of four, the rest zero.
+fn pad<const B: usize>(v: [Complex32; B]) -> [Complex32; 4] {
+    let mut out = [Complex32::new(0.0, 0.0); 4];
+    for (o, v) in out.iter_mut().zip(v) {
+        *o = v;
+    }
+    out
+}
+
+/// [`cross`] of two rows `x`, `y` against the same columns in one pass over the loops:
+/// `[Σ x·conj(c_b), Σ y·conj(c_b)]`, each sum the same chain of operations as `cross`'s.
+#[inline(never)]
+fn cross_pair<const K: usize, const B: usize>(
+    x: &[Complex32; K],
+    y: &[Complex32; K],
+    c: [&[Complex32; K]; B],
+) -> [[Complex32; B]; 2] {
+    let mut re = [[0.0f32; B]; 2];
+    let mut im = [[0.0f32; B]; 2];
+    for (k, (xk, yk)) in x.iter().zip(y.iter()).enumerate() {
+        for b in 0..B {
+            let v = c[b][k];
+            for (r, u) in [xk, yk].into_iter().enumerate() {
+                re[r][b] += u.re * v.re;
+                re[r][b] += u.im * v.im;
+                im[r][b] += u.im * v.re;
+                im[r][b] -= u.re * v.im;
+            }
+        }
+    }
+    core::array::from_fn(|r| core::array::from_fn(|b| Complex32::new(re[r][b], im[r][b])))
 }
 
 /// SIMD width of [`covariance_lanes`] (one SSE register of `f32`).
