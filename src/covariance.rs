@@ -65,34 +65,31 @@ fn covariance_rows<const D: usize, const K: usize>(
             break;
         };
         put(i, i + 1, cross(xi, [xn])[0]);
+        // Row `i`'s and row `i + 1`'s sums with the columns from `j`; returns how many.
+        let mut put_block = |j: usize, first: &[Complex32], second: &[Complex32]| {
+            for (o, (f, s)) in first.iter().zip(second.iter()).enumerate() {
+                put(i, j + o, *f);
+                put(i + 1, j + o, *s);
+            }
+            first.len()
+        };
         let mut j = i + 2;
+        // Blocks of four, then two, then one (three monomorphic kernels: flash).
         while j < rows.len() {
-            // Blocks of four, then two, then one (three monomorphic kernels: flash).
-            let (b, [first, second]) = match &rows[j..] {
-                [a, b, c, d, ..] => (4, cross_pair(xi, xn, [a, b, c, d])),
+            j += match &rows[j..] {
+                [a, b, c, d, ..] => {
+                    let [f, s] = cross_pair(xi, xn, [a, b, c, d]);
+                    put_block(j, &f, &s)
+                }
                 [a, b, ..] => {
                     let [f, s] = cross_pair(xi, xn, [a, b]);
-                    (2, [pad(f), pad(s)])
+                    put_block(j, &f, &s)
                 }
-                [a] => (1, [pad(cross(xi, [a])), pad(cross(xn, [a]))]),
+                [a] => put_block(j, &cross(xi, [a]), &cross(xn, [a])),
                 [] => break,
             };
-            for o in 0..b {
-                put(i, j + o, first[o]);
-                put(i + 1, j + o, second[o]);
-            }
-            j += b;
         }
     }
-}
-
-/// `v` in the first entries of four, the rest zero.
-fn pad<const B: usize>(v: [Complex32; B]) -> [Complex32; 4] {
-    let mut out = [Complex32::new(0.0, 0.0); 4];
-    for (o, v) in out.iter_mut().zip(v) {
-        *o = v;
-    }
-    out
 }
 
 /// [`cross`] of two rows `x`, `y` against the same columns in one pass over the loops:

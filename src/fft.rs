@@ -292,6 +292,7 @@ fn first_radix8_pass<T: FftValue, const N: usize>(
         oct.copy_from_slice(&[y0, y1, y2, y3, y4, y5, y6, y7]);
     }
 }
+
 /// The 4-point DFT `X[q] = Σ_m t_m · (−j)^{mq}`.
 #[inline(always)]
 fn butterfly4<T: FftValue>(t0: T, t1: T, t2: T, t3: T) -> [T; 4] {
