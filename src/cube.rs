@@ -234,14 +234,39 @@ impl<const N: usize, const K: usize, const M: usize> Cube<'_, N, K, M> {
         spectra: &[Lanes<L>; N],
     ) {
         const ABS: u32 = 0x7fff_ffff;
-        let mut peak = [0u32; L];
-        for v in spectra.iter() {
+        // Four independent maximum chains per lane (real and imaginary parts of even and odd
+        // bins), merged at the end: the maximum is exact in any order, and one chain through
+        // all 2N components waits on each compare's latency. `if a > m { a } else { m }` is
+        // one MAXPS per lane group on a host and ignores a NaN, which `nan` records instead
+        // (it takes the chirp to the checked path below, as a NaN peak would).
+        let abs = |x: f32| f32::from_bits(x.to_bits() & ABS);
+        let mut chains = [[0f32; L]; 4];
+        let mut nan = [false; L];
+        let mut fold = |c: usize, x: &[f32; L]| {
             for l in 0..L {
-                peak[l] = peak[l]
-                    .max(v.re[l].to_bits() & ABS)
-                    .max(v.im[l].to_bits() & ABS);
+                let a = abs(x[l]);
+                chains[c][l] = if a > chains[c][l] { a } else { chains[c][l] };
+                nan[l] |= a.is_nan();
             }
+        };
+        for pair in spectra.chunks_exact(2) {
+            fold(0, &pair[0].re);
+            fold(1, &pair[0].im);
+            fold(2, &pair[1].re);
+            fold(3, &pair[1].im);
         }
+        for v in spectra.chunks_exact(2).remainder() {
+            fold(0, &v.re);
+            fold(1, &v.im);
+        }
+        let peak: [u32; L] = core::array::from_fn(|l| {
+            let m = chains.iter().map(|c| c[l].to_bits()).fold(0, u32::max);
+            if nan[l] {
+                f32::NAN.to_bits()
+            } else {
+                m
+            }
+        });
         let all_finite = peak.iter().all(|&p| f32::from_bits(p).is_finite());
         let exponents: [i32; L] = core::array::from_fn(|l| block_exponent(f32::from_bits(peak[l])));
         let magic: [Option<f32>; L] = core::array::from_fn(|l| rounding_magic(exponents[l]));
@@ -262,6 +287,26 @@ impl<const N: usize, const K: usize, const M: usize> Cube<'_, N, K, M> {
             self.exponent[usize::from(rows[l])][k] = exponents[l] as i8;
         }
         let magic: [f32; L] = core::array::from_fn(|l| magic[l].unwrap_or(ROUNDING_MAGIC));
+        // When the chirp's channels are consecutive rows (ColoRadar's layout), a bin's `L`
+        // values are one run, rounded and written side by side.
+        let first = rows.first().map_or(0, |&r| usize::from(r));
+        if rows
+            .iter()
+            .enumerate()
+            .all(|(l, &r)| usize::from(r) == first + l)
+            && first + L <= M
+        {
+            for (bin, v) in self.bins.iter_mut().zip(spectra.iter()) {
+                let run: [CubeSample; L] = core::array::from_fn(|l| {
+                    [
+                        round_scaled(v.re[l], magic[l]),
+                        round_scaled(v.im[l], magic[l]),
+                    ]
+                });
+                bin[k][first..first + L].copy_from_slice(&run);
+            }
+            return;
+        }
         for (bin, v) in self.bins.iter_mut().zip(spectra.iter()) {
             let at = &mut bin[k];
             for l in 0..L {
@@ -474,7 +519,8 @@ mod tests {
     use super::*;
 
     /// The lanes store writes the same mantissas and exponents as one `store` per row, for
-    /// spectra of very different scales, a zero one, and (the checked path) an infinite one.
+    /// spectra of very different scales, a zero one, and (the checked path) an infinite or a
+    /// NaN component, on scattered and on consecutive rows.
     #[test]
     fn the_lanes_store_is_the_row_store_bit_for_bit() {
         const N: usize = 16;
@@ -490,11 +536,14 @@ mod tests {
             }
             v
         });
-        let rows = [5u8, 1, 3, 0];
-        for infinite in [false, true] {
+        // Scattered rows, and consecutive ones (stored as one run per bin).
+        for (rows, special) in [[5u8, 1, 3, 0], [2, 3, 4, 5]]
+            .into_iter()
+            .flat_map(|rows| [None, Some(f32::INFINITY), Some(f32::NAN)].map(|s| (rows, s)))
+        {
             let mut spectra = spectra;
-            if infinite {
-                spectra[3].im[2] = f32::INFINITY;
+            if let Some(x) = special {
+                spectra[3].im[2] = x;
             }
             let (mut a, mut b) = ([[[[0i16; 2]; M]; K]; N], [[[[0i16; 2]; M]; K]; N]);
             let (mut lanes, mut single) = (Cube::new(&mut a), Cube::new(&mut b));
@@ -503,9 +552,10 @@ mod tests {
                 let spectrum: [Complex32; N] = core::array::from_fn(|n| spectra[n].lane(l));
                 single.store(usize::from(row), 1, &spectrum);
             }
-            assert_eq!(lanes.exponent, single.exponent, "infinite {infinite}");
-            assert_eq!(lanes.bins, single.bins, "infinite {infinite}");
-            assert!(lanes.bins.iter().any(|bin| bin[1][5] != [0, 0]));
+            let case = format!("rows {rows:?}, special {special:?}");
+            assert_eq!(lanes.exponent, single.exponent, "{case}");
+            assert_eq!(lanes.bins, single.bins, "{case}");
+            assert!(lanes.bins.iter().any(|bin| bin[1][5] != [0, 0]), "{case}");
         }
     }
 
