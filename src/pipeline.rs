@@ -62,7 +62,8 @@ pub struct Params {
     /// Range window applied before the range FFT: the [`Frontend`]'s, which
     /// [`Dbe::configure`] checks (the reference implementation and reports read it here).
     pub range_window: WindowKind,
-    /// Slow-time window applied before the Doppler FFT.
+    /// Slow-time window applied before the Doppler FFT (the sub-bin estimator follows the
+    /// window: [`crate::doppler::doppler_peak`]).
     pub doppler_window: WindowKind,
     /// Diagonal loading factor γ: `δ = γ · tr(R) / M`.
     pub loading: f32,
@@ -846,7 +847,7 @@ impl<
         beamform(&w, snap, &[ONE; AZ], &mut y);
         // The fractional Doppler: the integer bin alone leaves up to half a bin of slot phase,
         // an elevation bias of up to 0.22° on ColoRadar's waveform (tests/pipeline.rs).
-        let peak = doppler_peak(&mut y, &self.doppler_window);
+        let peak = doppler_peak(&mut y, &self.doppler_window, self.params.doppler_window);
         Some(f32::from(peak.bin) + peak.offset)
     }
 
@@ -878,7 +879,7 @@ impl<
         let w = az.weight(&Self::line_part(steer, n));
         let mut y = [ZERO; K];
         beamform(&w, snap, &azimuth_part::<M, AZ>(&rot), &mut y);
-        let peak = doppler_peak(&mut y, &self.doppler_window);
+        let peak = doppler_peak(&mut y, &self.doppler_window, self.params.doppler_window);
         peak_to_median(&y, peak.power)
     }
 
@@ -1063,7 +1064,7 @@ impl<
             let w = sub.map_or(w, |sub| sub.expand(&w));
             let mut y = [ZERO; K];
             beamform(&w, snap, &rot, &mut y);
-            let peak = doppler_peak(&mut y, &self.doppler_window);
+            let peak = doppler_peak(&mut y, &self.doppler_window, self.params.doppler_window);
             let fractional = f32::from(peak.bin) + peak.offset;
             if !self.agrees(fractional, beam_doppler) {
                 continue;

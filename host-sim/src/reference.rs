@@ -43,7 +43,9 @@
 //!   and training cells and the cell itself, truncated as the training window).
 //! - **TDM-MIMO compensation (when enabled).** The Capon weight of the azimuth line at the
 //!   detection's `μ` beamforms the slow time; the strongest bin `d` of its windowed Doppler FFT
-//!   plus its log-parabola offset `δ` (from the two neighbours) gives
+//!   plus its sub-bin offset `δ` from the two neighbours (Jacobsen's complex ratio with
+//!   Candan's `tan(π/K)/(π/K)` under the rectangular window, the vertex of the log-parabola
+//!   through the powers under the others) gives
 //!   `v = (d + δ)·λ/(2·K·T_loop)`; every row `m` is multiplied by
 //!   `exp(−j·4π·v·slot_m·Tc/λ)` (the covariance becomes `D·R·Dᴴ`); the azimuth bin then
 //!   climbs the compensated azimuth spectrum uphill, at most `tdm_azimuth_search` bins (left
@@ -413,6 +415,18 @@ pub(crate) fn log_parabola_vertex(l: f64, c: f64, r: f64) -> f64 {
     }
 }
 
+/// Sub-bin offset of a tone from the unwindowed `k`-point DFT's strongest bin `c` and its
+/// neighbours `l`, `r`: Jacobsen's `Re[(l − r)/(2c − l − r)]` scaled by Candan's
+/// `tan(π/k)/(π/k)`, clamped to `[−½, ½]`; 0 when `2c − l − r` is 0 or not finite.
+pub(crate) fn candan_offset(l: Complex64, c: Complex64, r: Complex64, k: usize) -> f64 {
+    let q = (l - r) / (2.0 * c - l - r);
+    if !q.re.is_finite() {
+        return 0.0;
+    }
+    let x = PI / k as f64;
+    (q.re * x.tan() / x).clamp(-0.5, 0.5)
+}
+
 /// Relative gap of two compared values, `|a − b| / max(|a|, |b|)` (0 when both are 0).
 pub(crate) fn relative_gap(a: f64, b: f64) -> f64 {
     let scale = a.abs().max(b.abs());
@@ -507,6 +521,9 @@ struct Setup {
     el_nu: Vec<f64>,
     range_window: Vec<f64>,
     doppler_window: Vec<f64>,
+    /// The Doppler sub-bin estimator follows the window: Jacobsen–Candan under the
+    /// rectangular one, the log-parabola under the others.
+    doppler_rectangular: bool,
     range_fft: Arc<dyn Fft<f64>>,
     doppler_fft: Arc<dyn Fft<f64>>,
     first: usize,
@@ -556,6 +573,7 @@ impl Setup {
             el_nu: sine_grid(params.elevation_span_deg, elevation_bins),
             range_window: window(params.range_window, n),
             doppler_window: window(params.doppler_window, k),
+            doppler_rectangular: params.doppler_window == WindowKind::Rectangular,
             range_fft: planner.plan_fft_forward(n),
             doppler_fft: planner.plan_fft_forward(k),
             first: usize::from(params.range_first),
@@ -765,11 +783,12 @@ impl Setup {
             .fold(0.0, f64::max);
         margin.note(power[best], runner_up);
         let k = self.k;
-        let offset = log_parabola_vertex(
-            power[(best + k - 1) % k],
-            power[best],
-            power[(best + 1) % k],
-        );
+        let (l, r) = ((best + k - 1) % k, (best + 1) % k);
+        let offset = if self.doppler_rectangular {
+            candan_offset(y[l], y[best], y[r], k)
+        } else {
+            log_parabola_vertex(power[l], power[best], power[r])
+        };
         let signed = if best < k / 2 {
             best as i32
         } else {
@@ -1451,7 +1470,7 @@ fn beamform(w: &DVector<Complex64>, rot: &[Complex64], x: &DMatrix<Complex64>) -
         .collect()
 }
 
-/// The Doppler (bins plus the log-parabola offset) of the azimuth Capon beam of bin `i` on the
+/// The Doppler (bins plus the sub-bin offset) of the azimuth Capon beam of bin `i` on the
 /// uncompensated covariance, or `Rejected` when the Doppler test is on and the azimuth beam
 /// after TDM compensation by that Doppler (and the climb) fails it; `None` when the azimuth
 /// covariance is not positive definite. (A compensated covariance that is not positive
@@ -1752,7 +1771,7 @@ fn resolve(
     let mut r = r.clone();
 
     if params.tdm_compensation {
-        // The fractional Doppler (strongest bin plus its log-parabola offset), as the core.
+        // The fractional Doppler (strongest bin plus its sub-bin offset), as the core.
         let Some(d) = beam.doppler else {
             return;
         };
@@ -2257,6 +2276,31 @@ mod tests {
         assert_eq!(log_parabola_vertex(3.0, 2.0, 1.0), 0.0);
         assert_eq!(log_parabola_vertex(0.0, 2.0, 1.0), 0.0);
         assert!((log_parabola_vertex(2.0, 2.0, 1e-9) + 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn candan_offset_finds_a_tone_between_bins() {
+        let k = 64;
+        for i in 0..19 {
+            let f = 10.0 - 0.45 + 0.05 * f64::from(i);
+            let x: Vec<Complex64> = (0..k)
+                .map(|n| Complex64::from_polar(1.0, 2.0 * PI * f * n as f64 / k as f64 - 1.1))
+                .collect();
+            let dft = |b: usize| -> Complex64 {
+                x.iter()
+                    .enumerate()
+                    .map(|(n, v)| {
+                        v * Complex64::from_polar(1.0, -2.0 * PI * (b * n) as f64 / k as f64)
+                    })
+                    .sum()
+            };
+            let b = f.round() as usize;
+            let got = b as f64 + candan_offset(dft(b - 1), dft(b), dft(b + 1), k);
+            // Candan's residual is O(k⁻²) of the offset.
+            assert!((got - f).abs() < 1e-3, "{got} for {f}");
+        }
+        let z = Complex64::new(0.0, 0.0);
+        assert_eq!(candan_offset(z, z, z, 64), 0.0);
     }
 
     #[test]
