@@ -275,17 +275,16 @@ fn first_radix8_pass<T: FftValue, const N: usize>(
     // W_8^1 and W_8^3 (the table's `W^{MAX/8}`, `W^{3·MAX/8}`).
     let (w1, w3) = (TWIDDLES[MAX_FFT_SIZE / 8], TWIDDLES[3 * MAX_FFT_SIZE / 8]);
     for (g, oct) in out.chunks_exact_mut(8).enumerate() {
-        let pair = |i: usize| {
-            let r = reverse(2 * i, bits);
+        // Pair `4g + j` reads `rev(8g + 2j) = rev(8g) + rev(2j)` (the bits of `2j` lie below
+        // those of `8g`, so they reverse to disjoint positions): one bit reversal per group,
+        // the offsets `rev(2j)` = 0, N/4, N/8, 3N/8 constants.
+        let base = reverse(8 * g, bits);
+        let pair = |offset: usize| {
+            let r = base + offset;
             let (a, b) = (x(r), x(r + N / 2));
             (a + b, a - b)
         };
-        let (p0, p1, p2, p3) = (
-            pair(4 * g),
-            pair(4 * g + 1),
-            pair(4 * g + 2),
-            pair(4 * g + 3),
-        );
+        let (p0, p1, p2, p3) = (pair(0), pair(N / 4), pair(N / 8), pair(3 * N / 8));
         // Blocks of the length-8 group hold residues 0, 2, 1, 3 (see `radix4_stages`).
         let [y0, y2, y4, y6] = butterfly4(p0.0, p2.0, p1.0, p3.0);
         let [y1, y3, y5, y7] = butterfly4(p0.1, p2.1.times(w1), p1.1.times_neg_j(), p3.1.times(w3));
