@@ -57,7 +57,8 @@ pub fn doppler_peak<const K: usize>(
 /// `K`-point DFT and of its two neighbours: Jacobsen's estimator
 /// `Re[(X₋ − X₊) / (2X₀ − X₋ − X₊)]` with Candan's correction `tan(π/K)/(π/K)` (IEEE Signal
 /// Processing Letters 18(6), 2011), exact for a noise-free tone up to `O(K⁻²)`, clamped to
-/// `[−½, ½]`; 0 when the denominator vanishes. The correction is its Taylor series to `x⁶`
+/// `[−½, ½]`; 0 when the ratio is not finite (a vanishing denominator, an infinite or NaN
+/// value). The correction is its Taylor series to `x⁶`
 /// (`x = π/K`: below 2·10⁻⁵ relative for `K ≥ 8`, 10⁻¹² at `K = 128`), so no `tanf` runs on the
 /// device (`libm`'s works in `f64`, software on a Cortex-M4F).
 ///
@@ -70,11 +71,10 @@ pub fn jacobsen_offset<const K: usize>(
     right: Complex32,
 ) -> f32 {
     let den = centre * 2.0 - left - right;
-    let norm = den.norm_sqr();
-    if !(norm > 0.0) {
+    let ratio = ((left - right) * den.conj()).re / den.norm_sqr();
+    if !ratio.is_finite() {
         return 0.0;
     }
-    let ratio = ((left - right) * den.conj()).re / norm;
     let x2 = (core::f32::consts::PI / K as f32) * (core::f32::consts::PI / K as f32);
     let candan = 1.0 + x2 * (1.0 / 3.0 + x2 * (2.0 / 15.0 + x2 * (17.0 / 315.0)));
     (ratio * candan).clamp(-0.5, 0.5)
@@ -192,5 +192,6 @@ mod tests {
         assert_eq!(jacobsen_offset::<128>(z, z, z), 0.0);
         assert_eq!(jacobsen_offset::<128>(one, one * 0.5, one), 0.0);
         assert_eq!(jacobsen_offset::<128>(one * f32::NAN, one, one), 0.0);
+        assert_eq!(jacobsen_offset::<128>(one * f32::INFINITY, one, one), 0.0);
     }
 }

@@ -257,14 +257,21 @@ fn subgrid_refinement_agrees_and_moves_points_towards_the_truth() -> TestResult 
         subgrid: true,
         ..Params::defaults(sensor.samples)
     };
+    agrees_and_refines_four_targets(&sensor, &params)
+}
+
+/// Core and reference agree on the four targets at 10 dB, every point matched and none
+/// excused, and the reference's refined points sit near the truth
+/// ([`assert_refined_points_near_truth`]).
+fn agrees_and_refines_four_targets(sensor: &SensorConfig, params: &Params) -> TestResult {
     let targets = four_targets();
-    let frame = synth_frame(&sensor, &targets, 10.0, 1);
-    let report = Validator::new(&sensor, params)?.check(&frame)?;
+    let frame = synth_frame(sensor, &targets, 10.0, 1);
+    let report = Validator::new(sensor, *params)?.check(&frame)?;
     let table = format_table(std::slice::from_ref(&report));
     assert!(report.agreement.is_match(), "{table}");
     assert!(report.agreement.excused.is_empty(), "{table}");
     assert_eq!(report.agreement.points_matched, 4, "{table}");
-    assert_refined_points_near_truth(&sensor, &params, &frame, &targets)
+    assert_refined_points_near_truth(sensor, params, &frame, &targets)
 }
 
 /// The reference's refined points against the truth: the vertex of a log-parabola through
@@ -320,13 +327,7 @@ fn a_rectangular_doppler_window_agrees_and_refines() -> TestResult {
         doppler_window: dbe_radar::window::WindowKind::Rectangular,
         ..Params::defaults(sensor.samples)
     };
-    let targets = four_targets();
-    let frame = synth_frame(&sensor, &targets, 10.0, 1);
-    let report = Validator::new(&sensor, params)?.check(&frame)?;
-    let table = format_table(std::slice::from_ref(&report));
-    assert!(report.agreement.is_match(), "{table}");
-    assert_eq!(report.agreement.points_matched, 4, "{table}");
-    assert_refined_points_near_truth(&sensor, &params, &frame, &targets)
+    agrees_and_refines_four_targets(&sensor, &params)
 }
 
 #[test]
