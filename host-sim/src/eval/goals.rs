@@ -432,9 +432,14 @@ fn odometry_goals(e: &Evaluation, out: &mut Vec<Goal>) {
         goal: "an ego-velocity estimate on ≥ 98 % of frames while moving (DBE chain)".into(),
         met: least >= 98.0,
         detail: format!(
-            "{}; too few points in a frame is the usual reason (such a frame still updates the \
-             odometry, point by point: odometry section)",
-            list(&|s| format!("{:.1} %", s.estimated_while_moving_pct))
+            "{}{}",
+            list(&|s| format!("{:.1} %", s.estimated_while_moving_pct)),
+            if least < 100.0 {
+                "; too few points in a frame is the usual reason (such a frame still updates \
+                 the odometry, point by point: odometry section)"
+            } else {
+                ""
+            }
         ),
     });
     let pairs: Vec<(f64, f64, &str)> = dbe
