@@ -7,7 +7,7 @@
 use num_complex::Complex32;
 
 use crate::fft::fft_from;
-use crate::window::WindowKind;
+use crate::window::{Window, WindowKind};
 
 /// The strongest bin of a slow-time signal, after windowing and FFT.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -21,19 +21,15 @@ pub struct DopplerPeak {
     pub offset: f32,
 }
 
-/// Window `y` in place (coefficients `window`, of the window `kind`), FFT it and return its
-/// strongest bin with the sub-bin offset estimator that suits the window.
+/// Window `y` in place, FFT it and return its strongest bin with the sub-bin offset
+/// estimator that suits the window's kind.
 ///
 /// Not inlined: the chain calls it from two places per detection, and a copy of the FFT at
 /// each would cost flash for no measurable speed.
 #[inline(never)]
-pub fn doppler_peak<const K: usize>(
-    y: &mut [Complex32; K],
-    window: &[f32; K],
-    kind: WindowKind,
-) -> DopplerPeak {
-    let x = *y;
-    fft_from(y, |n| x[n & (K - 1)] * window[n & (K - 1)]);
+pub fn doppler_peak<const K: usize>(y: &mut [Complex32; K], window: &Window<K>) -> DopplerPeak {
+    let (x, w) = (*y, window.coefficients());
+    fft_from(y, |n| x[n & (K - 1)] * w[n & (K - 1)]);
     let mut best = (0usize, -1.0f32);
     for (d, v) in y.iter().enumerate() {
         let p = v.norm_sqr();
@@ -42,7 +38,7 @@ pub fn doppler_peak<const K: usize>(
         }
     }
     let (left, centre, right) = (y[(best.0 + K - 1) % K], y[best.0], y[(best.0 + 1) % K]);
-    let offset = match kind {
+    let offset = match window.kind() {
         WindowKind::Rectangular => jacobsen_offset::<K>(left, centre, right),
         _ => crate::refine::parabolic_offset(left.norm_sqr(), best.1, right.norm_sqr()),
     };
@@ -123,18 +119,18 @@ mod tests {
     fn peak_to_median_separates_a_tone_from_noise() {
         use rand::{Rng, SeedableRng};
         const K: usize = 128;
-        let window = crate::window::WindowKind::Hann.coefficients::<K>();
+        let window = Window::<K>::new(WindowKind::Hann);
         let mut rng = rand::rngs::StdRng::seed_from_u64(5);
         let mut noise = || Complex32::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
         // A tone at 0 dB per sample in the same noise: K / 1.5 ≈ 19 dB over the median.
         let mut y: [Complex32; K] =
             core::array::from_fn(|k| Complex32::from_polar(0.58, 0.3 * k as f32) + noise());
-        let peak = doppler_peak(&mut y, &window, WindowKind::Hann);
+        let peak = doppler_peak(&mut y, &window);
         assert!(peak_to_median(&y, peak.power) > 40.0);
         let mut above = 0;
         for _ in 0..2000 {
             let mut y: [Complex32; K] = core::array::from_fn(|_| noise());
-            let peak = doppler_peak(&mut y, &window, WindowKind::Hann);
+            let peak = doppler_peak(&mut y, &window);
             if peak_to_median(&y, peak.power) >= 15.85 {
                 above += 1;
             }
@@ -160,23 +156,26 @@ mod tests {
                 )
             })
         };
-        let rect = WindowKind::Rectangular.coefficients::<K>();
-        let hann = WindowKind::Hann.coefficients::<K>();
+        let rect = Window::<K>::new(WindowKind::Rectangular);
+        let hann = Window::<K>::new(WindowKind::Hann);
         let mut worst_parabola_rect = 0.0f32;
         for i in 0..19 {
             let delta = -0.45 + 0.05 * i as f32;
             for base in [-40.0f32, 3.0, 17.0] {
                 let f = base + delta;
                 let mut y = tone(f);
-                let peak = doppler_peak(&mut y, &rect, WindowKind::Rectangular);
+                let peak = doppler_peak(&mut y, &rect);
                 let got = f32::from(peak.bin) + peak.offset;
                 assert!((got - f).abs() < 1e-3, "rectangular: {got} for {f}");
+                // The log-parabola on the same (rectangular) spectrum.
                 let mut y = tone(f);
-                let p = doppler_peak(&mut y, &rect, WindowKind::Blackman);
-                worst_parabola_rect =
-                    worst_parabola_rect.max((f32::from(p.bin) + p.offset - f).abs());
+                let p = doppler_peak(&mut y, &rect);
+                let d = i32::from(p.bin).rem_euclid(K as i32) as usize;
+                let at = |i: usize| y[i % K].norm_sqr();
+                let off = crate::refine::parabolic_offset(at(d + K - 1), at(d), at(d + 1));
+                worst_parabola_rect = worst_parabola_rect.max((f32::from(p.bin) + off - f).abs());
                 let mut y = tone(f);
-                let peak = doppler_peak(&mut y, &hann, WindowKind::Hann);
+                let peak = doppler_peak(&mut y, &hann);
                 let got = f32::from(peak.bin) + peak.offset;
                 assert!((got - f).abs() < 0.02, "Hann: {got} for {f}");
             }

@@ -43,7 +43,7 @@ use crate::ring;
 use crate::split::{split_line_from, start_vector};
 use crate::subarray::{smooth_line, SubArray};
 use crate::tdm;
-use crate::window::WindowKind;
+use crate::window::{Window, WindowKind};
 
 const ZERO: Complex32 = Complex32::new(0.0, 0.0);
 const ONE: Complex32 = Complex32::new(1.0, 0.0);
@@ -389,7 +389,7 @@ pub struct Dbe<
 > {
     params: Params,
     layout: ArrayLayout<TX, RX, M>,
-    doppler_window: [f32; K],
+    doppler_window: Window<K>,
     az_mu: [f32; NAZ],
     el_nu: [f32; NEL],
     /// `exp(−j·κ·μ_i·az_m)` for every row.
@@ -440,7 +440,7 @@ impl<
         Self {
             params: Params::zeroed(),
             layout: ArrayLayout::ZEROED,
-            doppler_window: [0.0; K],
+            doppler_window: Window::unconfigured(),
             az_mu: [0.0; NAZ],
             el_nu: [0.0; NEL],
             az_steer: [[ZERO; M]; NAZ],
@@ -496,7 +496,7 @@ impl<
         self.layout = layout;
         self.sub = SubArray::of(&layout, AZ);
         self.split_start = start_vector();
-        self.doppler_window = params.doppler_window.coefficients();
+        self.doppler_window = Window::new(params.doppler_window);
         self.range_bin_m = frontend.range_bin_m();
         self.doppler_bin_mps = frontend.doppler_bin_mps();
         Ok(())
@@ -847,7 +847,7 @@ impl<
         beamform(&w, snap, &[ONE; AZ], &mut y);
         // The fractional Doppler: the integer bin alone leaves up to half a bin of slot phase,
         // an elevation bias of up to 0.22° on ColoRadar's waveform (tests/pipeline.rs).
-        let peak = doppler_peak(&mut y, &self.doppler_window, self.params.doppler_window);
+        let peak = doppler_peak(&mut y, &self.doppler_window);
         Some(f32::from(peak.bin) + peak.offset)
     }
 
@@ -879,7 +879,7 @@ impl<
         let w = az.weight(&Self::line_part(steer, n));
         let mut y = [ZERO; K];
         beamform(&w, snap, &azimuth_part::<M, AZ>(&rot), &mut y);
-        let peak = doppler_peak(&mut y, &self.doppler_window, self.params.doppler_window);
+        let peak = doppler_peak(&mut y, &self.doppler_window);
         peak_to_median(&y, peak.power)
     }
 
@@ -1064,7 +1064,7 @@ impl<
             let w = sub.map_or(w, |sub| sub.expand(&w));
             let mut y = [ZERO; K];
             beamform(&w, snap, &rot, &mut y);
-            let peak = doppler_peak(&mut y, &self.doppler_window, self.params.doppler_window);
+            let peak = doppler_peak(&mut y, &self.doppler_window);
             let fractional = f32::from(peak.bin) + peak.offset;
             if !self.agrees(fractional, beam_doppler) {
                 continue;
@@ -1126,7 +1126,10 @@ impl<
         let step = Complex32::from_polar(1.0, -core::f32::consts::TAU * doppler / K as f32);
         let mut kernel = [ZERO; K];
         let mut phasor = ONE;
-        for (e, w) in kernel.iter_mut().zip(self.doppler_window.iter()) {
+        for (e, w) in kernel
+            .iter_mut()
+            .zip(self.doppler_window.coefficients().iter())
+        {
             *e = phasor * *w;
             phasor *= step;
         }

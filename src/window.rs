@@ -41,3 +41,48 @@ impl WindowKind {
         w
     }
 }
+
+/// A window's kind with its `N` coefficients, kept together: a peak interpolator must know
+/// the main lobe's shape, so code that applies a window and then interpolates the peak takes
+/// this one value and cannot pair coefficients with the wrong kind.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Window<const N: usize> {
+    kind: WindowKind,
+    coefficients: [f32; N],
+}
+
+impl<const N: usize> Window<N> {
+    /// The window of `kind`.
+    ///
+    /// ```
+    /// use dbe_radar::window::{Window, WindowKind};
+    /// let w = Window::<4>::new(WindowKind::Rectangular);
+    /// assert_eq!(w.kind(), WindowKind::Rectangular);
+    /// assert_eq!(w.coefficients(), &[1.0; 4]);
+    /// ```
+    pub fn new(kind: WindowKind) -> Self {
+        Self {
+            kind,
+            coefficients: kind.coefficients(),
+        }
+    }
+
+    /// All-zero coefficients (everything maps to zero), for `const` construction before a
+    /// chain is configured.
+    pub const fn unconfigured() -> Self {
+        Self {
+            kind: WindowKind::Rectangular,
+            coefficients: [0.0; N],
+        }
+    }
+
+    /// The window's kind.
+    pub fn kind(&self) -> WindowKind {
+        self.kind
+    }
+
+    /// The window's coefficients.
+    pub fn coefficients(&self) -> &[f32; N] {
+        &self.coefficients
+    }
+}
