@@ -150,7 +150,7 @@ impl EvalConfig {
             sweep: true,
             sweep_snr_db: vec![2.5, 20.0],
             sweep_separations_deg: vec![6.0, 8.0],
-            odometry_seeds: 3,
+            odometry_seeds: 5,
             odometry_frames: None,
         }
     }
