@@ -59,8 +59,8 @@ pub fn doppler_peak<const K: usize>(y: &mut [Complex32; K], window: &Window<K>) 
 /// device (`libm`'s works in `f64`, software on a Cortex-M4F).
 ///
 /// The log-parabola of [`crate::refine`] suits a Gaussian-like main lobe (Hann, Blackman);
-/// on the rectangular window's `sinc` it is biased by several hundredths of a bin, which TDM
-/// compensation turns into elevation error.
+/// on the rectangular window's `sinc` it is biased by up to 0.17 bin, which TDM compensation
+/// turns into elevation error.
 pub fn jacobsen_offset<const K: usize>(
     left: Complex32,
     centre: Complex32,
@@ -143,7 +143,7 @@ mod tests {
 
     /// A noise-free tone between bins: under the rectangular window the corrected Jacobsen
     /// offset finds it to 10⁻³ bin (its residual is O(K⁻²) plus f32 rounding), where the
-    /// log-parabola on the `sinc²` main lobe is off by several hundredths; under Hann the
+    /// log-parabola on the `sinc²` main lobe is off by up to 0.17 bin; under Hann the
     /// log-parabola stays within 0.02 bin.
     #[test]
     fn sub_bin_offset_matches_the_window() {
@@ -180,7 +180,7 @@ mod tests {
                 assert!((got - f).abs() < 0.02, "Hann: {got} for {f}");
             }
         }
-        assert!(worst_parabola_rect > 0.03, "{worst_parabola_rect}");
+        assert!(worst_parabola_rect > 0.15, "{worst_parabola_rect}");
     }
 
     /// Degenerate neighbourhoods give no offset instead of NaN.

@@ -99,7 +99,7 @@ use crate::fft::fft_from;
 use crate::frontend::Frontend;
 use crate::pipeline::Params;
 use crate::points::{power_db, ratio_db, Point, PointCloud};
-use crate::refine::parabolic_offset;
+use crate::refine::{parabolic_offset, power_offset};
 use crate::tdm;
 use crate::window::WindowKind;
 
@@ -531,10 +531,16 @@ impl<
             b.and_then(|b| rd.get(b))
                 .map_or(0.0, |row| row[d & (K - 1)])
         };
-        // The detection's fractional Doppler from its RD neighbours: TDM compensation with the
-        // integer bin alone leaves up to half a bin of slot phase (an elevation bias).
+        // The detection's fractional Doppler from its RD neighbours, by the estimator that
+        // suits the Doppler window: TDM compensation with the integer bin alone leaves up to
+        // half a bin of slot phase (an elevation bias).
         let c = at(Some(b), d);
-        let doppler_frac = parabolic_offset(at(Some(b), d + K - 1), c, at(Some(b), d + 1));
+        let doppler_frac = power_offset::<K>(
+            self.params.doppler_window,
+            at(Some(b), d + K - 1),
+            c,
+            at(Some(b), d + 1),
+        );
         let x = self.doppler_cell(snap, d, f32::from(signed) + doppler_frac);
 
         // Azimuth: beamscan of the line on the μ grid; an end-of-grid peak is out of span.
