@@ -967,8 +967,8 @@ fn goals_section(m: &mut String, e: &Evaluation) {
         m,
         "\nNothing in the chains was changed to make a goal pass. The simulator changed once \
          with a goal in view: the outdoors sequence's street goes on past the end of the walk, \
-         where the radar used to look into an empty world for the last 3 s (before: an \
-         ego-velocity on 92 % of its moving frames, XYZ drift DBE 1.66 % against FFT 1.57 %, \
+         where the radar used to look into an empty world for the last 3 s (before, over 3 seeds: \
+         an ego-velocity on 92 % of its moving frames, XYZ drift DBE 1.66 % against FFT 1.57 %, \
          the drift of the IMU-only end shrinking by chance).\n"
     );
 }
