@@ -172,6 +172,9 @@ fn readme_headline_table_is_the_committed_report() -> TestResult {
     Ok(())
 }
 
+/// The report's odometry sequences, in its order.
+const SEQUENCES: [&str; 4] = ["hallways", "outdoors", "aspen", "army"];
+
 /// The odometry summary row of `sequence` and `variant` in the report's `summary.json`.
 fn odometry_row<'a>(
     summary: &'a Value,
@@ -196,7 +199,7 @@ fn readme_odometry_table_is_the_committed_report() -> TestResult {
         readme.contains(&format!("{seeds} seeds each")),
         "README does not say the report's {seeds} seeds"
     );
-    for seq in ["hallways", "outdoors", "aspen", "army"] {
+    for seq in SEQUENCES {
         let (d, f) = (find(seq, "dbe")?, find(seq, "fft")?);
         let paired = d["xyz_pct_minus_fft"]
             .as_array()
@@ -227,7 +230,7 @@ fn readme_odometry_table_is_the_committed_report() -> TestResult {
             "README lacks the report's line\n{line}"
         );
     }
-    let sigma_z = ["hallways", "outdoors", "aspen", "army"]
+    let sigma_z = SEQUENCES
         .iter()
         .map(|seq| {
             let d = find(seq, "dbe")?;
@@ -265,7 +268,7 @@ fn readme_point_update_figures_are_the_committed_report() -> TestResult {
     // README: "changed only the FFT chain's drift (hallways 0.83 to 0.88 %, army …;" and
     // "the DBE chain has an estimate on every moving frame".
     let mut changed = Vec::new();
-    for seq in ["hallways", "outdoors", "aspen", "army"] {
+    for seq in SEQUENCES {
         let dbe = find(seq, "dbe")?;
         assert_eq!(
             num(&dbe["points_applied"], "points")?,
@@ -318,7 +321,7 @@ fn readme_point_update_figures_are_the_committed_report() -> TestResult {
     // "… read the radar 0.4–2.0 % slower than it moves (DBE 0.980–0.994, FFT 0.986–0.996)".
     let range = |v: &str| -> Result<(f64, f64), String> {
         let mut r = (f64::INFINITY, f64::NEG_INFINITY);
-        for seq in ["hallways", "outdoors", "aspen", "army"] {
+        for seq in SEQUENCES {
             let x = num(&find(seq, v)?["radial_scale"], "radial_scale")?;
             r = (r.0.min(x), r.1.max(x));
         }

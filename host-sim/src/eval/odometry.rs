@@ -75,7 +75,7 @@ pub struct OdometryRow {
 }
 
 /// Frames of a sequence: until its trajectory's last waypoint, at most `limit`.
-fn frame_count(scene: &Scene, limit: Option<usize>) -> usize {
+pub fn frame_count(scene: &Scene, limit: Option<usize>) -> usize {
     let n = (scene.sensor.end_time_s() * scene.frame_rate_hz).floor() as usize;
     limit.map_or(n, |l| n.min(l)).max(1)
 }
