@@ -243,6 +243,15 @@ pub enum Chain {
     Fft,
 }
 
+/// The points of one frame, without the maps: [`CoreRunner::process_points`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct FramePoints {
+    /// The points.
+    pub points: Vec<PointRecord>,
+    /// The frame statistics.
+    pub stats: FrameStats,
+}
+
 /// What the core produced for one frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CoreOutput {
@@ -286,8 +295,6 @@ trait HostChain<
     ) -> Result<Box<Self>, ConfigError>;
     /// A zeroed workspace on the heap.
     fn workspace() -> Box<Self::Workspace>;
-    /// The range–azimuth map and its detections (DBE chain), or nothing (FFT chain, whose
-    /// detections live on the range–Doppler map).
     /// The range–azimuth map, detections and range–Doppler map a [`CoreOutput`] reports.
     fn inspect(work: &Self::Workspace) -> Inspected;
 }
@@ -395,7 +402,8 @@ struct Engine<
     storage: Box<CubeStorage<N, K, M>>,
     work: Box<C::Workspace>,
     cloud: Box<PointCloud<P>>,
-    chirp: Box<[[[i16; 2]; N]; RX]>,
+    /// The preset these sizes belong to (for the error of a frame of other sizes).
+    preset: Preset,
     /// `SensorConfig::range_bias_m`, subtracted from every point's range.
     range_bias_m: f32,
 }
@@ -474,30 +482,31 @@ impl<
             storage,
             work: C::workspace(),
             cloud: Box::new(PointCloud::new()),
-            chirp: Box::new([[[0; 2]; N]; RX]),
+            preset,
             range_bias_m: sensor.range_bias_m as f32,
         }))
     }
 
-    /// Process `frame`, timing each stage on the wall clock.
-    fn process_timed(
-        &mut self,
-        frame: &AdcFrame,
-    ) -> Result<(CoreOutput, StageTimes), CoreRunError> {
+    /// Process `frame`, timing each stage on the wall clock: the points are left in the
+    /// cloud, the maps in the workspace.
+    fn run_timed(&mut self, frame: &AdcFrame) -> Result<StageTimes, CoreRunError> {
+        let preset = self.preset;
         let start = Instant::now();
         let mut cube = Cube::new(&mut self.storage);
         for k in 0..K {
             for t in 0..TX {
-                let src = frame.chirp(k, t);
-                for (dst, src) in self.chirp.iter_mut().zip(src.chunks_exact(N)) {
-                    dst.copy_from_slice(src);
-                }
+                // The recording's chirp in place, as firmware passes its DMA buffer: a copy
+                // cost 10–15 % of the ingest (issue 13).
+                let rows: &[[[i16; 2]; N]] = bytemuck::try_cast_slice(frame.chirp(k, t))
+                    .map_err(|_| shape_error(preset, frame))?;
+                let chirp: &[[[i16; 2]; N]; RX] =
+                    rows.try_into().map_err(|_| shape_error(preset, frame))?;
                 let id = ChirpId {
                     loop_index: k as u16,
                     tx_slot: t as u8,
                 };
                 self.frontend
-                    .push_chirp(&mut cube, id, &self.chirp)
+                    .push_chirp(&mut cube, id, chirp)
                     .map_err(CoreRunError::Frame)?;
             }
         }
@@ -513,32 +522,41 @@ impl<
         self.chain.points(&checked, &mut self.work, &mut self.cloud);
         self.cloud.subtract_range_bias(self.range_bias_m);
         let t_points = t.elapsed();
-        let times = StageTimes {
+        Ok(StageTimes {
             names: C::STAGES,
             ingest: t_ingest,
             stages: [t_map, t_detect, t_points],
-        };
-        let Inspected {
-            ra_map,
-            detections,
-            rd_map,
-        } = C::inspect(&self.work);
-        let out = CoreOutput {
+        })
+    }
+
+    /// The points of the last frame.
+    fn points(&self) -> FramePoints {
+        FramePoints {
             points: self.cloud.points().iter().map(PointRecord::from).collect(),
             stats: self.cloud.stats,
-            ra_map,
-            detections,
-            rd_map,
-        };
-        Ok((out, times))
+        }
+    }
+}
+
+/// The error of a frame whose sizes are not `preset`'s.
+fn shape_error(preset: Preset, frame: &AdcFrame) -> CoreRunError {
+    CoreRunError::FrameShape {
+        preset,
+        expected: preset.sizes(),
+        found: (frame.samples, frame.loops, frame.tx, frame.rx),
+        len: frame.data.len(),
     }
 }
 
 /// One preset's engine behind a pointer: what [`CoreRunner`] needs of it.
 trait Run: Send {
     fn params(&self) -> &Params;
-    fn process_timed(&mut self, frame: &AdcFrame)
-        -> Result<(CoreOutput, StageTimes), CoreRunError>;
+    /// Process `frame` (of the engine's sizes), timing each stage.
+    fn run_timed(&mut self, frame: &AdcFrame) -> Result<StageTimes, CoreRunError>;
+    /// The points of the last frame.
+    fn points(&self) -> FramePoints;
+    /// The maps and detections of the last frame.
+    fn inspect(&self) -> Inspected;
 }
 
 impl<
@@ -558,11 +576,16 @@ where
         &self.params
     }
 
-    fn process_timed(
-        &mut self,
-        frame: &AdcFrame,
-    ) -> Result<(CoreOutput, StageTimes), CoreRunError> {
-        Engine::process_timed(self, frame)
+    fn run_timed(&mut self, frame: &AdcFrame) -> Result<StageTimes, CoreRunError> {
+        Engine::run_timed(self, frame)
+    }
+
+    fn points(&self) -> FramePoints {
+        Engine::points(self)
+    }
+
+    fn inspect(&self) -> Inspected {
+        C::inspect(&self.work)
     }
 }
 
@@ -660,7 +683,30 @@ impl CoreRunner {
         frame: &AdcFrame,
     ) -> Result<(CoreOutput, StageTimes), CoreRunError> {
         self.check_shape(frame)?;
-        self.engine.process_timed(frame)
+        let times = self.engine.run_timed(frame)?;
+        let FramePoints { points, stats } = self.engine.points();
+        let Inspected {
+            ra_map,
+            detections,
+            rd_map,
+        } = self.engine.inspect();
+        let out = CoreOutput {
+            points,
+            stats,
+            ra_map,
+            detections,
+            rd_map,
+        };
+        Ok((out, times))
+    }
+
+    /// [`Self::process`] without copying out the maps and detections: what a run that keeps
+    /// only the points needs (`dbe process`, the odometry; about 100 kB less to allocate and
+    /// copy per ColoRadar frame).
+    pub fn process_points(&mut self, frame: &AdcFrame) -> Result<FramePoints, CoreRunError> {
+        self.check_shape(frame)?;
+        self.engine.run_timed(frame)?;
+        Ok(self.engine.points())
     }
 
     /// A frame of other sizes than the preset's is an error.
@@ -669,12 +715,7 @@ impl CoreRunner {
         let found = (frame.samples, frame.loops, frame.tx, frame.rx);
         let (n, k, tx, rx) = expected;
         if found != expected || frame.data.len() != n * k * tx * rx {
-            return Err(CoreRunError::FrameShape {
-                preset: self.preset,
-                expected,
-                found,
-                len: frame.data.len(),
-            });
+            return Err(shape_error(self.preset, frame));
         }
         Ok(())
     }
@@ -781,7 +822,15 @@ mod tests {
         }
         let params = Params::defaults(128);
         for chain in [Chain::Dbe, Chain::Fft] {
-            let out = CoreRunner::with_chain(&sensor, params, chain)?.process(&frame)?;
+            let mut runner = CoreRunner::with_chain(&sensor, params, chain)?;
+            let out = runner.process(&frame)?;
+            // Without the maps, the same points and statistics.
+            let lean = runner.process_points(&frame)?;
+            assert_eq!((&lean.points, lean.stats), (&out.points, out.stats));
+            assert!(matches!(
+                runner.process_points(&AdcFrame::zeros(256, 64, 3, 4)),
+                Err(CoreRunError::FrameShape { .. })
+            ));
             let hit = out.points.iter().find(|p| p.range_bin == 40);
             assert!(
                 hit.is_some_and(|p| p.y.abs() < 0.2 && p.doppler_bin == 0),

@@ -125,7 +125,7 @@ pub fn run_frames(
                     let result = (|| {
                         let runner = runner.as_mut().map_err(|e| anyhow::anyhow!("{e}"))?;
                         let out = runner
-                            .process(&frame?)
+                            .process_points(&frame?)
                             .with_context(|| format!("frame {i}"))?;
                         Ok(FrameResult {
                             index: i,

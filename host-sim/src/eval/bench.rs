@@ -128,7 +128,7 @@ impl Bench {
                 None => slot
                     .insert(CoreRunner::with_chain(&self.sensor, v.params, v.chain).map_err(fail)?),
             };
-            let o = runner.process(frame).map_err(fail)?;
+            let o = runner.process_points(frame).map_err(fail)?;
             out.push(Some(ChainOutput {
                 points: o.points,
                 stats: o.stats,
