@@ -4,6 +4,8 @@
 //! push_chirp : TDM order check → per RX: DC removal, window, range FFT (range.rs)
 //!              → − coupling calibration of its cube row → × channel gain of the row
 //!              → Cube[bin][loop][row]
+//! push_range_spectra : the same from range spectra computed off the core (the radar's
+//!              FFT accelerator, a DSP): TDM order check → − coupling → × gain → Cube
 //! frame      : all K·TX chirps in order? → Frame (else FrameError)
 //! ```
 //!
@@ -292,7 +294,6 @@ impl<
         let Some(rows) = self.layout.row_of.get(usize::from(id.tx_slot)) else {
             return Ok(());
         };
-        let coupling = self.coupling_on.then_some(&self.coupling);
         // With SIMD lanes (host) the chirp's RX channels are transformed and stored side by
         // side; on a Cortex-M (no SIMD; a lanes buffer would add RX × N × 8 bytes of stack)
         // one after the other. Both give bit-identical cubes (`RangeFft::process_lanes`,
@@ -301,7 +302,7 @@ impl<
         {
             let mut lanes = [Lanes::<RX>::ZERO; N];
             self.range.process_lanes(chirp, &mut lanes);
-            if let Some(c) = coupling {
+            if let Some(c) = self.coupling_on.then_some(&self.coupling) {
                 for (l, &row) in rows.iter().enumerate() {
                     let Some(c) = c.get(usize::from(row)) else {
                         continue;
@@ -331,22 +332,68 @@ impl<
             for (samples, &row) in chirp.iter().zip(rows.iter()) {
                 let row = usize::from(row);
                 self.range.process(samples, &mut spectrum);
-                if let Some(c) = coupling.and_then(|c| c.get(row)) {
-                    for (s, c) in spectrum.iter_mut().zip(c.iter()) {
-                        *s -= *c;
-                    }
-                }
-                if self.gains_on {
-                    if let Some(&g) = self.gains.get(row) {
-                        for s in spectrum.iter_mut() {
-                            *s *= g;
-                        }
-                    }
-                }
+                self.correct(row, &mut spectrum);
                 cube.store(row, k, &spectrum);
             }
         }
         Ok(())
+    }
+
+    /// Ingest one chirp whose range FFT was computed off this core — by the radar chip's
+    /// FFT accelerator or a DSP, as TI's own chains do during the chirp — given as
+    /// `spectra[rx][bin]` of TX slot `id.tx_slot` in loop `id.loop_index`.
+    ///
+    /// The spectra must be in this frontend's units: the unnormalised FFT ([`crate::fft`])
+    /// of the chirp's samples with their complex mean removed and [`Self::range_window`]
+    /// applied, which is what [`RangeFft::process`] computes (an accelerator's output scaled
+    /// back to that, and windowed alike, or the sub-bin range estimate and the CFAR's
+    /// intensities are off). The coupling calibration, the channel gains, the block-float
+    /// store and the TDM order rules are [`Self::push_chirp`]'s: given `RangeFft::process`'s
+    /// spectra the cube is bit-identical to `push_chirp`'s. On the emulated Cortex-M4F it
+    /// costs a sixth of `push_chirp` (`cargo xtask budget`, `ingest_from_spectra`).
+    pub fn push_range_spectra(
+        &self,
+        cube: &mut Cube<'_, N, K, M>,
+        id: ChirpId,
+        spectra: &[[Complex32; N]; RX],
+    ) -> Result<(), FrameError> {
+        let Some(k) = cube.accept(id, TX) else {
+            return cube.frame(TX).and(Err(FrameError::TooManyChirps));
+        };
+        let Some(rows) = self.layout.row_of.get(usize::from(id.tx_slot)) else {
+            return Ok(());
+        };
+        for (s, &row) in spectra.iter().zip(rows.iter()) {
+            let row = usize::from(row);
+            if self.coupling_on || self.gains_on {
+                let mut spectrum = *s;
+                self.correct(row, &mut spectrum);
+                cube.store(row, k, &spectrum);
+            } else {
+                cube.store(row, k, s);
+            }
+        }
+        Ok(())
+    }
+
+    /// Subtract the coupling calibration of cube row `row` and apply its channel gain, in
+    /// place (each only when configured).
+    #[inline(always)]
+    fn correct(&self, row: usize, spectrum: &mut [Complex32; N]) {
+        if self.coupling_on {
+            if let Some(c) = self.coupling.get(row) {
+                for (s, c) in spectrum.iter_mut().zip(c.iter()) {
+                    *s -= *c;
+                }
+            }
+        }
+        if self.gains_on {
+            if let Some(&g) = self.gains.get(row) {
+                for s in spectrum.iter_mut() {
+                    *s *= g;
+                }
+            }
+        }
     }
 
     /// The cube's frame when all `K · TX` chirps arrived in order, else a [`FrameError`]

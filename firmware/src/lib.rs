@@ -51,6 +51,8 @@
 //! | `process` | the sum of the three stages |
 //! | `ego_velocity` | `EgoEstimator::estimate` on the frame's points (after `process`, not in `total`) |
 //! | `total` | `ingest` + `process`: one frame |
+//! | `ingest_from_spectra` | Σ `Frontend::push_range_spectra` over the frame: the ingest of a radar whose FFT accelerator computes the range spectra (each chirp's spectra computed untimed by `RangeFft` first; after the frame, not in `total`) |
+//! | `total_from_spectra` | `ingest_from_spectra` + `process`: one frame with the range FFT off the core |
 //! | `setup` | `Frontend::configure` + `Chain::configure` + `EgoEstimator::configure` (once, not per frame) |
 #![no_std]
 #![deny(unsafe_code)]
@@ -203,6 +205,8 @@ pub enum Failure {
     Config(ConfigError),
     /// Ingestion rejected the frame.
     Frame(FrameError),
+    /// `push_range_spectra` left another cube than `push_chirp` did.
+    SpectraCube,
     /// The instruction clock does not count whole instructions per tick.
     Clock(clock::Calibration),
 }
@@ -221,6 +225,10 @@ impl fmt::Display for Failure {
             ),
             Failure::Config(e) => write!(f, "configuration rejected: {e}"),
             Failure::Frame(e) => write!(f, "frame rejected: {e}"),
+            Failure::SpectraCube => write!(
+                f,
+                "ingesting the range spectra left another cube than ingesting the chirps"
+            ),
         }
     }
 }
@@ -321,6 +329,63 @@ fn ingest<
     Ok(total)
 }
 
+/// FNV-1a over the cube's mantissas: the check that two ingestions left the same cube.
+fn cube_digest<const N: usize, const K: usize, const M: usize>(cube: &Cube<'_, N, K, M>) -> u32 {
+    let mut h = 0x811c_9dc5u32;
+    for v in cube.mantissas().iter().flatten().flatten().flatten() {
+        h = (h ^ u32::from(*v as u16)).wrapping_mul(0x0100_0193);
+    }
+    h
+}
+
+/// Ticks of the frame's ingestion from range spectra ([`Frontend::push_range_spectra`]), as
+/// a radar whose FFT accelerator computes them would feed the core: each chirp's spectra are
+/// computed first, untimed, by the frontend's `RangeFft`. The cube must come out as
+/// `push_chirp` left it (else [`Failure::SpectraCube`]). Never inlined: its spectra buffer
+/// (`RX·N·8` bytes) is on a stack frame of its own, after the frame's peak was measured.
+#[inline(never)]
+fn ingest_spectra<
+    const N: usize,
+    const K: usize,
+    const TX: usize,
+    const RX: usize,
+    const M: usize,
+    const AZ: usize,
+>(
+    frontend: &Frontend<N, K, TX, RX, M, AZ>,
+    cube: &mut Cube<'_, N, K, M>,
+    dma: &mut [[[i16; 2]; N]; RX],
+    frame: &[u8],
+) -> Result<u64, Failure> {
+    let fft = dbe_radar::range::RangeFft::<N>::new(frontend.range_window());
+    let before = cube_digest(cube);
+    let mut spectra = [[dbe_radar::Complex32::new(0.0, 0.0); N]; RX];
+    let mut ticks = 0u64;
+    cube.begin_frame();
+    for k in 0..K {
+        for t in 0..TX {
+            load_chirp::<N, TX, RX>(frame, k, t, dma);
+            for (s, samples) in spectra.iter_mut().zip(dma.iter()) {
+                fft.process(samples, s);
+            }
+            let id = ChirpId {
+                loop_index: k as u16,
+                tx_slot: t as u8,
+            };
+            let (dt, r) = clock::time(|| frontend.push_range_spectra(cube, id, &spectra));
+            r?;
+            ticks += u64::from(dt);
+        }
+    }
+    let (dt, r) = clock::time(|| frontend.frame(cube).map(|_| ()));
+    r?;
+    ticks += u64::from(dt);
+    if cube_digest(cube) != before {
+        return Err(Failure::SpectraCube);
+    }
+    Ok(ticks)
+}
+
 /// The range window of a chain's parameters (both chains carry the frontend's).
 pub trait RangeWindow {
     /// The range window the frontend must use.
@@ -394,6 +459,7 @@ where
     let (t_points, ()) = clock::time(|| chain.points(&frame, b.work, b.cloud));
     let (t_ego, ego) = clock::time(|| b.ego.estimate(b.cloud.points()));
     let stack_frame = stack::peak_bytes();
+    let from_spectra = ingest_spectra(frontend, &mut cube, b.dma, preset.frame)?;
 
     say!(
         con,
@@ -461,7 +527,7 @@ where
     );
     let process = u64::from(t_map) + u64::from(t_detect) + u64::from(t_points);
     let [map, detect, points] = C::STAGES;
-    let stages: [(&str, (u64, u64)); 11] = [
+    let stages: [(&str, (u64, u64)); 13] = [
         ("setup", i(t_setup)),
         ("range_fft_per_chirp", per_chirp),
         ("range_fft_chirp_min", i(ingest.chirp_min)),
@@ -477,6 +543,17 @@ where
             (
                 cal.instructions(ingest.ticks + process),
                 ingest.ticks + process,
+            ),
+        ),
+        (
+            "ingest_from_spectra",
+            (cal.instructions(from_spectra), from_spectra),
+        ),
+        (
+            "total_from_spectra",
+            (
+                cal.instructions(from_spectra + process),
+                from_spectra + process,
             ),
         ),
     ];

@@ -350,6 +350,14 @@ const DBE_STAGES: StageRows = (
         ),
         ("total", "**per frame** (ingest + process)"),
         (
+            "ingest_from_spectra",
+            "ingest from range spectra of an FFT accelerator (`push_range_spectra`, all K·TX chirps)",
+        ),
+        (
+            "total_from_spectra",
+            "per frame with the range FFT off the core (ingest from spectra + process)",
+        ),
+        (
             "setup",
             "setup: `Frontend::configure` + `Dbe::configure` (once)",
         ),
@@ -385,6 +393,14 @@ const FFT_STAGES: StageRows = (
             "ego-velocity from the points (`EgoEstimator`, not in the frame)",
         ),
         ("total", "**per frame** (ingest + process)"),
+        (
+            "ingest_from_spectra",
+            "ingest from range spectra of an FFT accelerator (`push_range_spectra`, all K·TX chirps)",
+        ),
+        (
+            "total_from_spectra",
+            "per frame with the range FFT off the core (ingest from spectra + process)",
+        ),
         (
             "setup",
             "setup: `Frontend::configure` + `FftChain::configure` (once)",
