@@ -651,6 +651,24 @@ dbe_status_t dbe_push_chirp(dbe_t *handle,
                             size_t values);
 
 /**
+ * Feed one chirp whose range FFT was computed off this core (the radar chip's FFT
+ * accelerator, a DSP): `spectra` holds `chirp_values` floats, `[rx][range bin][re, im]`, of TX
+ * slot `tx_slot` in loop `loop_index`, in the units of the library's own range FFT: the
+ * unnormalised FFT of the chirp's samples with their complex mean removed and the
+ * configured range window applied (an accelerator's output scaled back to that). The
+ * coupling table, the channel gains, the storage and the TDM order rules are
+ * `dbe_push_chirp`'s; a frame may mix both calls.
+ *
+ * # Safety
+ * `spectra` is valid for `values` floats; `handle` came from `dbe_init`.
+ */
+dbe_status_t dbe_push_range_spectra(dbe_t *handle,
+                                    uint16_t loop_index,
+                                    uint8_t tx_slot,
+                                    const float *spectra,
+                                    size_t values);
+
+/**
  * Forget the chirps of the frame in progress (and its error, if a chirp was wrong).
  *
  * # Safety

@@ -148,6 +148,31 @@ int main(void) {
     EXPECT(dbe_set_channel_gains(radar, gains, 3 * 4 * 2), DBE_OK);
     EXPECT(dbe_set_channel_gains(radar, NULL, 0), DBE_OK);
 
+    /* Range spectra (an FFT accelerator's): size, alignment, order as for chirps; a frame of
+     * zero spectra, and one of NaN spectra, are processed without points. */
+    static float spectra[4 * 128 * 2];
+    EXPECT(dbe_begin_frame(radar), DBE_OK);
+    EXPECT(dbe_push_range_spectra(radar, 0, 0, NULL, sz.chirp_values), DBE_ERR_NULL_POINTER);
+    EXPECT(dbe_push_range_spectra(radar, 0, 0, spectra, sz.chirp_values + 1), DBE_ERR_CHIRP_SIZE);
+    EXPECT(dbe_push_range_spectra(radar, 0, 0, (const float *)((const char *)spectra + 2), sz.chirp_values),
+           DBE_ERR_MISALIGNED);
+    EXPECT(dbe_push_range_spectra(radar, 1, 0, spectra, sz.chirp_values), DBE_ERR_CHIRP_OUT_OF_ORDER);
+    EXPECT(dbe_begin_frame(radar), DBE_OK);
+    for (int pass = 0; pass < 2; pass++) {
+        for (uint32_t k = 0; k < sz.loops; k++)
+            for (uint32_t t = 0; t < sz.tx; t++)
+                EXPECT(dbe_push_range_spectra(radar, (uint16_t)k, (uint8_t)t, spectra, sz.chirp_values), DBE_OK);
+        EXPECT(dbe_push_range_spectra(radar, 0, 0, spectra, sz.chirp_values), DBE_ERR_TOO_MANY_CHIRPS);
+        EXPECT(dbe_begin_frame(radar), DBE_OK);
+        for (uint32_t k = 0; k < sz.loops; k++)
+            for (uint32_t t = 0; t < sz.tx; t++)
+                EXPECT(dbe_push_range_spectra(radar, (uint16_t)k, (uint8_t)t, spectra, sz.chirp_values), DBE_OK);
+        EXPECT(dbe_process_frame(radar, &st), DBE_OK);
+        CHECK(st.points == 0);
+        for (size_t i = 0; i < sizeof spectra / sizeof spectra[0]; i++)
+            spectra[i] = NAN;
+    }
+
     /* Range bias: any finite value. */
     EXPECT(dbe_set_range_bias(radar, NAN), DBE_ERR_NOT_FINITE);
     EXPECT(dbe_set_range_bias(radar, 0.07f), DBE_OK);

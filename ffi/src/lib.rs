@@ -11,6 +11,7 @@
 //! dbe_init(preset, state, cube, config) → handle (all in the caller's memory)
 //! per frame: dbe_push_chirp × (loops · TX), in TDM order → dbe_process_frame
 //!            → dbe_points, dbe_ego_velocity
+//!            (or dbe_push_range_spectra, when an FFT accelerator computed the range FFT)
 //! ```
 //!
 //! Contract:
@@ -431,6 +432,7 @@ const _: () = {
 /// What a preset's state can do, so that every entry point is written once.
 trait Radar {
     fn push_chirp(&mut self, id: ChirpId, iq: &[i16]) -> dbe_status_t;
+    fn push_range_spectra(&mut self, id: ChirpId, values: &[f32]) -> dbe_status_t;
     fn begin_frame(&mut self);
     fn process(&mut self) -> (dbe_status_t, dbe_frame_stats_t);
     fn points(&self) -> &[dbe_radar::points::Point];
@@ -461,6 +463,23 @@ impl<
         // alignment, exactly what `iq` is; read only, for the duration of the call.
         let chirp = unsafe { &*iq.as_ptr().cast::<[[[i16; 2]; N]; RX]>() };
         match self.frontend.push_chirp(&mut self.cube, id, chirp) {
+            Ok(()) => DBE_OK,
+            Err(e) => frame_status(e),
+        }
+    }
+
+    fn push_range_spectra(&mut self, id: ChirpId, values: &[f32]) -> dbe_status_t {
+        if values.len() != RX * N * 2 {
+            return DBE_ERR_CHIRP_SIZE;
+        }
+        // SAFETY: `Complex32` is `repr(C)` `{re, im}` of `f32`, so `[[Complex32; N]; RX]` is
+        // `RX · N · 2` contiguous `f32` with `f32`'s alignment, exactly what `values` is
+        // (the caller checked the alignment); read only, for the duration of the call.
+        let spectra = unsafe { &*values.as_ptr().cast::<[[dbe_radar::Complex32; N]; RX]>() };
+        match self
+            .frontend
+            .push_range_spectra(&mut self.cube, id, spectra)
+        {
             Ok(()) => DBE_OK,
             Err(e) => frame_status(e),
         }
@@ -1209,6 +1228,48 @@ pub unsafe extern "C" fn dbe_push_chirp(
             tx_slot,
         },
         samples,
+    )
+}
+
+/// Feed one chirp whose range FFT was computed off this core (the radar chip's FFT
+/// accelerator, a DSP): `spectra` holds `chirp_values` floats, `[rx][range bin][re, im]`, of TX
+/// slot `tx_slot` in loop `loop_index`, in the units of the library's own range FFT: the
+/// unnormalised FFT of the chirp's samples with their complex mean removed and the
+/// configured range window applied (an accelerator's output scaled back to that). The
+/// coupling table, the channel gains, the storage and the TDM order rules are
+/// `dbe_push_chirp`'s; a frame may mix both calls.
+///
+/// # Safety
+/// `spectra` is valid for `values` floats; `handle` came from `dbe_init`.
+#[no_mangle]
+pub unsafe extern "C" fn dbe_push_range_spectra(
+    handle: *mut dbe_t,
+    loop_index: u16,
+    tx_slot: u8,
+    spectra: *const f32,
+    values: usize,
+) -> dbe_status_t {
+    let r = radar_or_return!(handle);
+    let Some(sizes) = header_sizes(handle) else {
+        return DBE_ERR_BAD_HANDLE;
+    };
+    if spectra.is_null() {
+        return DBE_ERR_NULL_POINTER;
+    }
+    if (spectra as usize) % align_of::<f32>() != 0 {
+        return DBE_ERR_MISALIGNED;
+    }
+    if values != sizes.chirp_values as usize {
+        return DBE_ERR_CHIRP_SIZE;
+    }
+    // SAFETY: non-null, aligned, the caller guarantees `values` floats.
+    let values = unsafe { core::slice::from_raw_parts(spectra, values) };
+    r.push_range_spectra(
+        ChirpId {
+            loop_index,
+            tx_slot,
+        },
+        values,
     )
 }
 
