@@ -74,6 +74,7 @@ pub struct ProcessArgs {
 }
 
 /// Points of one frame.
+#[derive(Clone, Debug)]
 pub struct FrameResult {
     pub index: usize,
     pub time_s: f64,
@@ -91,6 +92,29 @@ pub fn run_frames(
     range: std::ops::Range<usize>,
     label: Option<&str>,
 ) -> Result<Vec<FrameResult>> {
+    run_frames_with(input, sensor, params, pipeline, range, label, None)
+}
+
+/// What [`run_frames_with`] calls for every processed frame: its position in the range and
+/// its result (writing its files).
+pub type FrameSink<'a> = dyn Fn(usize, &FrameResult) -> Result<()> + Sync + 'a;
+
+/// Threads that run the [`FrameSink`]: writing a file and flushing it to disk mostly waits, and
+/// the file system merges concurrent flushes into fewer journal commits (300 ColoRadar point
+/// files, written after the frames: 0.10–0.12 s on one thread, 0.06 s on 8, 0.06–0.08 s on 32).
+const WRITERS: usize = 8;
+
+/// [`run_frames`], handing every frame's result to `sink` on [`WRITERS`] threads of its own
+/// while the workers go on with the next frames. A sink error counts as that frame's error.
+pub fn run_frames_with(
+    input: &Input,
+    sensor: &SensorConfig,
+    params: &dbe_radar::Params,
+    pipeline: Pipeline,
+    range: std::ops::Range<usize>,
+    label: Option<&str>,
+    sink: Option<&FrameSink<'_>>,
+) -> Result<Vec<FrameResult>> {
     let chain = match pipeline {
         Pipeline::Dbe => Chain::Dbe,
         Pipeline::Fft => Chain::Fft,
@@ -105,7 +129,30 @@ pub fn run_frames(
     // worker (200 ColoRadar frames on 2 cores, read from disk: 566–635 frames/s with the
     // workers reading, 773–835 with the reader; from the page cache ≈ 900 either way).
     let ahead = 2 * rayon::current_num_threads();
+    let first = range.start;
+    // Frames for the sink, and what it reported.
+    let (to_sink, for_sink) = std::sync::mpsc::channel::<(usize, FrameResult)>();
+    let for_sink = std::sync::Mutex::new(for_sink);
+    let sink_errors = std::sync::Mutex::new(Vec::<(usize, anyhow::Error)>::new());
     let mut results: Vec<(usize, Result<FrameResult>)> = std::thread::scope(|scope| {
+        if let Some(sink) = sink {
+            for _ in 0..WRITERS {
+                let (for_sink, sink_errors) = (&for_sink, &sink_errors);
+                scope.spawn(move || loop {
+                    // The lock is held only while waiting for the next frame.
+                    let next = match for_sink.lock() {
+                        Ok(r) => r.recv(),
+                        Err(_) => return,
+                    };
+                    let Ok((i, result)) = next else { return };
+                    if let Err(e) = sink(i - first, &result) {
+                        if let Ok(mut errors) = sink_errors.lock() {
+                            errors.push((i, e));
+                        }
+                    }
+                });
+            }
+        }
         let (send, frames) = std::sync::mpsc::sync_channel(ahead);
         scope.spawn(move || {
             for i in range {
@@ -115,13 +162,18 @@ pub fn run_frames(
                 }
             }
         });
-        frames
+        let results: Vec<(usize, Result<FrameResult>)> = frames
             .into_iter()
             .par_bridge()
             .progress_with(bar.clone())
             .map_init(
-                || CoreRunner::with_chain(sensor, *params, chain),
-                |runner, (i, frame)| {
+                || {
+                    (
+                        CoreRunner::with_chain(sensor, *params, chain),
+                        sink.map(|_| to_sink.clone()),
+                    )
+                },
+                |(runner, to_sink), (i, frame)| {
                     let result = (|| {
                         let runner = runner.as_mut().map_err(|e| anyhow::anyhow!("{e}"))?;
                         let out = runner
@@ -134,12 +186,25 @@ pub fn run_frames(
                             stats: out.stats,
                         })
                     })();
+                    if let (Some(to_sink), Ok(r)) = (to_sink, &result) {
+                        // The writers outlive the workers (same scope): a send cannot fail
+                        // unless a writer panicked, which the scope then reports.
+                        let _ = to_sink.send((i, r.clone()));
+                    }
                     (i, result)
                 },
             )
-            .collect()
+            .collect();
+        // The workers' senders are gone with their states; this one ends the writers' loops.
+        drop(to_sink);
+        results
     });
     bar.finish_and_clear();
+    for (i, e) in sink_errors.into_inner().unwrap_or_default() {
+        if let Some(slot) = results.iter_mut().find(|(j, _)| *j == i) {
+            slot.1 = Err(e);
+        }
+    }
     // Frame order, and the first error in frame order, as a sequential run would give.
     results.sort_by_key(|(i, _)| *i);
     results.into_iter().map(|(_, r)| r).collect()
@@ -162,22 +227,70 @@ pub const MCAP_FILE: &str = "points.mcap";
 
 /// Write `results` in `formats` under the staged folder `dir`.
 pub fn write_outputs(dir: &Path, results: &[FrameResult], formats: &[Format]) -> Result<()> {
+    create_frame_folders(dir, formats)?;
+    for (n, r) in results.iter().enumerate() {
+        write_frame_files(dir, formats, n, r)?;
+    }
+    write_run_files(dir, results, formats)
+}
+
+/// The folders [`write_frame_files`] writes into.
+fn create_frame_folders(dir: &Path, formats: &[Format]) -> Result<()> {
+    for format in formats {
+        if let Some(folder) = frame_folder(format) {
+            let folder = dir.join(folder);
+            fs::create_dir_all(&folder)
+                .with_context(|| format!("creating {}", folder.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Where a per-frame format's files go under the output folder (`None`: one file per run).
+fn frame_folder(format: &Format) -> Option<&'static str> {
+    match format {
+        Format::Coloradar => Some("single_chip/pointclouds/data"),
+        Format::Csv => Some("csv"),
+        Format::Pcd => Some("pcd"),
+        Format::Ply => Some("ply"),
+        Format::Mcap => None,
+    }
+}
+
+/// The files of frame `r`, the `n`-th of the run, in every per-frame format of `formats`.
+fn write_frame_files(dir: &Path, formats: &[Format], n: usize, r: &FrameResult) -> Result<()> {
+    for format in formats {
+        let Some(folder) = frame_folder(format) else {
+            continue;
+        };
+        let folder = dir.join(folder);
+        match format {
+            Format::Coloradar => {
+                write_coloradar_bin(&folder.join(format!("radar_pointcloud_{n}.bin")), &r.points)?
+            }
+            Format::Csv => write_csv(&folder.join(format!("frame_{}.csv", r.index)), &r.points)?,
+            Format::Pcd => write_pcd(&folder.join(format!("frame_{}.pcd", r.index)), &r.points)?,
+            Format::Ply => write_ply(
+                &folder.join(format!("frame_{}.ply", r.index)),
+                &r.points,
+                PlyEncoding::BinaryLittleEndian,
+            )?,
+            Format::Mcap => {}
+        }
+    }
+    Ok(())
+}
+
+/// The files of the whole run: the ColoRadar timestamps, the MCAP file.
+fn write_run_files(dir: &Path, results: &[FrameResult], formats: &[Format]) -> Result<()> {
     for format in formats {
         match format {
             Format::Coloradar => {
-                let base = dir.join("single_chip/pointclouds");
-                let data = base.join("data");
-                fs::create_dir_all(&data)
-                    .with_context(|| format!("creating {}", data.display()))?;
-                let mut times = String::new();
-                for (n, r) in results.iter().enumerate() {
-                    write_coloradar_bin(
-                        &data.join(format!("radar_pointcloud_{n}.bin")),
-                        &r.points,
-                    )?;
-                    times.push_str(&format!("{}\n", r.time_s));
-                }
-                write_file_atomic(&base.join("timestamps.txt"), times.as_bytes())?;
+                let times: String = results.iter().map(|r| format!("{}\n", r.time_s)).collect();
+                write_file_atomic(
+                    &dir.join("single_chip/pointclouds/timestamps.txt"),
+                    times.as_bytes(),
+                )?;
             }
             Format::Mcap => {
                 let frames: Vec<McapFrame<'_>> = results
@@ -189,24 +302,7 @@ pub fn write_outputs(dir: &Path, results: &[FrameResult], formats: &[Format]) ->
                     .collect();
                 write_mcap(&dir.join(MCAP_FILE), &frames)?;
             }
-            Format::Csv | Format::Pcd | Format::Ply => {
-                let (sub, ext) = match format {
-                    Format::Csv => ("csv", "csv"),
-                    Format::Pcd => ("pcd", "pcd"),
-                    _ => ("ply", "ply"),
-                };
-                let folder = dir.join(sub);
-                fs::create_dir_all(&folder)
-                    .with_context(|| format!("creating {}", folder.display()))?;
-                for r in results {
-                    let path = folder.join(format!("frame_{}.{ext}", r.index));
-                    match format {
-                        Format::Csv => write_csv(&path, &r.points)?,
-                        Format::Pcd => write_pcd(&path, &r.points)?,
-                        _ => write_ply(&path, &r.points, PlyEncoding::BinaryLittleEndian)?,
-                    }
-                }
-            }
+            Format::Csv | Format::Pcd | Format::Ply => {}
         }
     }
     Ok(())
@@ -319,15 +415,19 @@ pub fn run(args: &ProcessArgs) -> Result<()> {
         }
     }
     let staged = StagedDir::new(&args.out)?;
-    let results = run_frames(
+    create_frame_folders(staged.path(), &args.format)?;
+    // Every frame's files are written while the next frames are processed.
+    let write = |n: usize, r: &FrameResult| write_frame_files(staged.path(), &args.format, n, r);
+    let results = run_frames_with(
         &opened.input,
         &opened.sensor,
         &params,
         args.pipeline,
         range.clone(),
         (!args.quiet).then_some("process"),
+        Some(&write),
     )?;
-    write_outputs(staged.path(), &results, &args.format)?;
+    write_run_files(staged.path(), &results, &args.format)?;
     let elapsed_s = started.elapsed().as_secs_f64();
     let record = run_record(args, &opened, &params, &range, &results, elapsed_s)?;
     write_file_atomic(
@@ -365,4 +465,64 @@ pub fn run(args: &ProcessArgs) -> Result<()> {
         outln!("note: {skipped} range bins skipped (covariance not positive definite), {overflow} detections/points over capacity")?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A six-frame simulated sequence in `dir`.
+    fn sequence(dir: &Path) -> Result<super::super::input::Opened> {
+        let seq = dir.join("seq");
+        super::super::simulate::run(&super::super::simulate::SimulateArgs {
+            scene: concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/single_target.toml").into(),
+            frames: 6,
+            calib: None,
+            out: seq.clone(),
+            realistic_surfaces: false,
+        })?;
+        Input::open(&seq, None, None)
+    }
+
+    /// The sink sees every frame once, by its position in the range; a sink error is its
+    /// frame's error, the first in frame order wins, whatever order the writers met them in.
+    #[test]
+    fn every_frame_reaches_the_sink_and_its_errors_are_the_runs() -> Result<()> {
+        let tmp = tempfile::tempdir()?;
+        let opened = sequence(tmp.path())?;
+        let params = dbe_radar::Params::defaults(opened.sensor.samples);
+        let run = |sink: &FrameSink<'_>| {
+            run_frames_with(
+                &opened.input,
+                &opened.sensor,
+                &params,
+                Pipeline::Dbe,
+                1..6,
+                None,
+                Some(sink),
+            )
+        };
+        let seen = std::sync::Mutex::new(Vec::new());
+        let results = run(&|n, r| {
+            seen.lock()
+                .map_err(|_| anyhow::anyhow!("poisoned"))?
+                .push((n, r.index));
+            Ok(())
+        })?;
+        let mut seen = seen.into_inner().map_err(|_| anyhow::anyhow!("poisoned"))?;
+        seen.sort_unstable();
+        assert_eq!(seen, (0..5).map(|n| (n, n + 1)).collect::<Vec<_>>());
+        assert_eq!(
+            results.iter().map(|r| r.index).collect::<Vec<_>>(),
+            vec![1, 2, 3, 4, 5]
+        );
+        let err = run(&|n, _| match n {
+            1 | 3 => anyhow::bail!("disk full at {n}"),
+            _ => Ok(()),
+        })
+        .err()
+        .map(|e| format!("{e:#}"));
+        assert_eq!(err.as_deref(), Some("disk full at 1"));
+        Ok(())
+    }
 }
