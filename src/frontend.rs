@@ -345,12 +345,13 @@ impl<
     ///
     /// The spectra must be in this frontend's units: the unnormalised FFT ([`crate::fft`])
     /// of the chirp's samples with their complex mean removed and [`Self::range_window`]
-    /// applied, which is what [`RangeFft::process`] computes (an accelerator's output scaled
-    /// back to that, and windowed alike, or the sub-bin range estimate and the CFAR's
-    /// intensities are off). The coupling calibration, the channel gains, the block-float
-    /// store and the TDM order rules are [`Self::push_chirp`]'s: given `RangeFft::process`'s
-    /// spectra the cube is bit-identical to `push_chirp`'s. On the emulated Cortex-M4F it
-    /// costs a sixth of `push_chirp` (`cargo xtask budget`, `ingest_from_spectra`).
+    /// applied, which is what [`RangeFft::process`] computes. An accelerator's output must be
+    /// scaled back to that and windowed alike, or the coupling table (in these units), the
+    /// points' powers and the sub-bin range estimate (which assumes the window) are off. The
+    /// coupling calibration, the channel gains, the block-float store and the TDM order rules
+    /// are [`Self::push_chirp`]'s: given `RangeFft::process`'s spectra the cube is
+    /// bit-identical to `push_chirp`'s. On the emulated Cortex-M4F it costs about a quarter of
+    /// `push_chirp` (`cargo xtask budget`, `ingest_from_spectra`: the block-float store).
     pub fn push_range_spectra(
         &self,
         cube: &mut Cube<'_, N, K, M>,
