@@ -139,8 +139,14 @@ impl Input {
 
     /// Frame `i`.
     pub fn frame(&self, i: usize) -> Result<AdcFrame> {
+        self.frame_reusing(i, &mut Vec::new())
+    }
+
+    /// [`Self::frame`], reading a sequence's frame file through `bytes`, a buffer the caller
+    /// keeps from frame to frame.
+    pub fn frame_reusing(&self, i: usize, bytes: &mut Vec<u8>) -> Result<AdcFrame> {
         match self {
-            Input::Sequence { seq, .. } => Ok(seq.read_frame(i)?),
+            Input::Sequence { seq, .. } => Ok(seq.read_frame_reusing(i, bytes)?),
             Input::Dca1000 { path, frames } => frames
                 .get(i)
                 .cloned()

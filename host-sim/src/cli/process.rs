@@ -155,9 +155,10 @@ pub fn run_frames_with(
         }
         let (send, frames) = std::sync::mpsc::sync_channel(ahead);
         scope.spawn(move || {
+            let mut bytes = Vec::new();
             for i in range {
                 // The receiver is gone only when the workers have stopped: stop reading.
-                if send.send((i, input.frame(i))).is_err() {
+                if send.send((i, input.frame_reusing(i, &mut bytes))).is_err() {
                     break;
                 }
             }

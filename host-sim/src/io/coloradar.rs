@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use super::atomic::{create_dir, write_plain, StagedDir};
 use super::calib::{check_sensor, write_calib_files, SINGLE_CHIP};
-use super::{content_lines, not_found_or_os, read_bytes, read_text, IoError};
+use super::{content_lines, not_found_or_os, read_bytes_into, read_text, IoError};
 use crate::frame::AdcFrame;
 use crate::sensor::SensorConfig;
 
@@ -245,6 +245,13 @@ impl Sequence {
     /// Read frame `i` into TDM order. Fails if `i` is out of range or the file changed size
     /// since the sequence was opened.
     pub fn read_frame(&self, i: usize) -> Result<AdcFrame, IoError> {
+        self.read_frame_reusing(i, &mut Vec::new())
+    }
+
+    /// [`Self::read_frame`] through `bytes`, a buffer the caller keeps from frame to frame: a
+    /// reader of many frames then allocates (and the kernel zeroes) no fresh megabyte of file
+    /// bytes per frame.
+    pub fn read_frame_reusing(&self, i: usize, bytes: &mut Vec<u8>) -> Result<AdcFrame, IoError> {
         let path = self.frames.get(i).ok_or_else(|| {
             IoError::invalid(
                 &self.dir,
@@ -254,11 +261,11 @@ impl Sequence {
                 ),
             )
         })?;
-        let bytes = read_bytes(path, "a frame file")?;
+        read_bytes_into(path, "a frame file", bytes)?;
         if bytes.len() != self.sensor.frame_bytes() {
             return Err(frame_size_error(path, bytes.len() as u64, &self.sensor));
         }
-        Ok(decode_frame(&bytes, &self.sensor))
+        Ok(decode_frame(bytes, &self.sensor))
     }
 }
 

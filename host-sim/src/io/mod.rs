@@ -203,6 +203,16 @@ pub(crate) fn read_bytes(path: &Path, what: &str) -> Result<Vec<u8>, IoError> {
     std::fs::read(path).map_err(|e| not_found_or_os(path, what, "read", e))
 }
 
+/// [`read_bytes`] into `buf` (cleared first; its capacity is reused).
+pub(crate) fn read_bytes_into(path: &Path, what: &str, buf: &mut Vec<u8>) -> Result<(), IoError> {
+    use std::io::Read;
+    buf.clear();
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_to_end(buf))
+        .map(|_| ())
+        .map_err(|e| not_found_or_os(path, what, "read", e))
+}
+
 /// Read a whole text file (UTF-8).
 pub(crate) fn read_text(path: &Path, what: &str) -> Result<String, IoError> {
     let bytes = read_bytes(path, what)?;
