@@ -1193,6 +1193,34 @@ pub unsafe extern "C" fn dbe_set_range_bias(handle: *mut dbe_t, bias_m: f32) -> 
     r.set_range_bias(bias_m)
 }
 
+/// The caller's one chirp of `values` `T` at `ptr` (samples or spectra), checked as every
+/// chirp entry point checks it: the handle's sizes, then NULL, alignment and count
+/// (`chirp_values`).
+///
+/// # Safety
+/// `handle` passed `radar_or_return!`; `ptr` is valid for `values` `T` for the returned
+/// lifetime.
+unsafe fn chirp_values<'a, T>(
+    handle: *mut dbe_t,
+    ptr: *const T,
+    values: usize,
+) -> Result<&'a [T], dbe_status_t> {
+    let Some(sizes) = header_sizes(handle) else {
+        return Err(DBE_ERR_BAD_HANDLE);
+    };
+    if ptr.is_null() {
+        return Err(DBE_ERR_NULL_POINTER);
+    }
+    if (ptr as usize) % align_of::<T>() != 0 {
+        return Err(DBE_ERR_MISALIGNED);
+    }
+    if values != sizes.chirp_values as usize {
+        return Err(DBE_ERR_CHIRP_SIZE);
+    }
+    // SAFETY: non-null, aligned, the caller guarantees `values` `T`.
+    Ok(unsafe { core::slice::from_raw_parts(ptr, values) })
+}
+
 /// Feed one chirp: `iq` holds `chirp_values` int16 (`[rx][sample][I, Q]`, as the ADC
 /// delivers them) of TX slot `tx_slot` in loop `loop_index`. Chirps must come in TDM order
 /// (loop 0 slot 0, loop 0 slot 1, …); a wrong one is not stored and makes the frame an error.
@@ -1208,20 +1236,11 @@ pub unsafe extern "C" fn dbe_push_chirp(
     values: usize,
 ) -> dbe_status_t {
     let r = radar_or_return!(handle);
-    let Some(sizes) = header_sizes(handle) else {
-        return DBE_ERR_BAD_HANDLE;
+    // SAFETY: the caller guarantees `values` int16 at `iq`.
+    let samples = match unsafe { chirp_values(handle, iq, values) } {
+        Ok(v) => v,
+        Err(e) => return e,
     };
-    if iq.is_null() {
-        return DBE_ERR_NULL_POINTER;
-    }
-    if (iq as usize) % align_of::<i16>() != 0 {
-        return DBE_ERR_MISALIGNED;
-    }
-    if values != sizes.chirp_values as usize {
-        return DBE_ERR_CHIRP_SIZE;
-    }
-    // SAFETY: non-null, aligned, the caller guarantees `values` int16.
-    let samples = unsafe { core::slice::from_raw_parts(iq, values) };
     r.push_chirp(
         ChirpId {
             loop_index,
@@ -1250,20 +1269,11 @@ pub unsafe extern "C" fn dbe_push_range_spectra(
     values: usize,
 ) -> dbe_status_t {
     let r = radar_or_return!(handle);
-    let Some(sizes) = header_sizes(handle) else {
-        return DBE_ERR_BAD_HANDLE;
+    // SAFETY: the caller guarantees `values` floats at `spectra`.
+    let values = match unsafe { chirp_values(handle, spectra, values) } {
+        Ok(v) => v,
+        Err(e) => return e,
     };
-    if spectra.is_null() {
-        return DBE_ERR_NULL_POINTER;
-    }
-    if (spectra as usize) % align_of::<f32>() != 0 {
-        return DBE_ERR_MISALIGNED;
-    }
-    if values != sizes.chirp_values as usize {
-        return DBE_ERR_CHIRP_SIZE;
-    }
-    // SAFETY: non-null, aligned, the caller guarantees `values` floats.
-    let values = unsafe { core::slice::from_raw_parts(spectra, values) };
     r.push_range_spectra(
         ChirpId {
             loop_index,

@@ -200,7 +200,9 @@ impl fmt::Display for IndexList<'_> {
 
 /// Read a whole file, mapping failures to [`IoError::Os`] / [`IoError::NotFound`].
 pub(crate) fn read_bytes(path: &Path, what: &str) -> Result<Vec<u8>, IoError> {
-    std::fs::read(path).map_err(|e| not_found_or_os(path, what, "read", e))
+    let mut buf = Vec::new();
+    read_bytes_into(path, what, &mut buf)?;
+    Ok(buf)
 }
 
 /// [`read_bytes`] into `buf` (cleared first; its capacity is reused).
