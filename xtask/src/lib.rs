@@ -39,8 +39,10 @@
 //! | [`protocol`] | parsing what an image prints ([`FirmwareRun`]) |
 //! | [`elf`] | section and static sizes from the ELF ([`ElfMemory`]) |
 //! | [`budget`] | measurement → `docs/budget.json` → the Markdown block, staleness checks |
+//! | [`anchors`] | the Python chains issue 13 compares with, timed beside `dbe bench` (`docs/anchors.json`) |
 //! | [`ffi`] | the C API: header (cbindgen), static libraries, the host and Cortex-M4F C programs |
 
+pub mod anchors;
 pub mod budget;
 pub mod elf;
 mod error;

@@ -11,6 +11,7 @@
 //! cargo xtask c-example              # build ffi/c/example.c, run it on the TI capture
 //! cargo xtask c-firmware coloradar   # build the C firmware (arm-none-eabi-gcc), run it on QEMU
 //! cargo xtask profile coloradar      # instructions per function of one image (QEMU exec log)
+//! cargo xtask anchors --dbe-radar DIR # time the authors' Python and OpenRadar beside `dbe bench`
 //! ```
 
 use std::process::ExitCode;
@@ -66,6 +67,14 @@ enum Command {
         #[arg(long, default_value_t = 40)]
         top: usize,
     },
+    /// Time the Python chains issue 13 compares with (the authors' DBE chain, OpenRadar's FFT
+    /// chain) and `dbe bench` on the same simulated frames; write docs/anchors.json.
+    Anchors {
+        /// A checkout of the authors' code (github.com/SenseRoboticsLab/DBE-Radar); without it
+        /// the repository is cloned into target/anchors.
+        #[arg(long)]
+        dbe_radar: Option<std::path::PathBuf>,
+    },
     /// Build the C firmware (ffi/c/firmware, arm-none-eabi-gcc) and run it on QEMU's Cortex-M4F.
     CFirmware {
         /// The frame: coloradar (simulated) or iwr6843 (the TI capture).
@@ -110,6 +119,12 @@ fn run(command: Command) -> Result<bool, FirmwareError> {
                 .find(|i| i.name() == image)
                 .ok_or_else(|| usage(format!("unknown image `{image}` ({})", image_names())))?;
             print!("{}", xtask::profile::profile(&layout, image, top)?);
+            Ok(true)
+        }
+        Command::Anchors { dbe_radar } => {
+            let anchors = xtask::anchors::measure(&layout, dbe_radar.as_deref())?;
+            print!("{}", xtask::anchors::render(&anchors));
+            println!("{}", xtask::anchors::anchors_json(&layout).display());
             Ok(true)
         }
         Command::Frames => {

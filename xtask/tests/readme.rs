@@ -128,6 +128,49 @@ fn the_performance_figures_are_the_measured_budget() {
     }
 }
 
+/// README's table of the Python anchors is `docs/anchors.json` (`cargo xtask anchors`).
+#[test]
+fn the_anchor_table_is_the_measured_one() {
+    let layout = Layout::this_repo();
+    let path = xtask::anchors::anchors_json(&layout);
+    let anchors = xtask::anchors::read_anchors(&path).unwrap_or_else(|e| panic!("{e}"));
+    let chain = |name: &str| {
+        anchors
+            .chain(name)
+            .unwrap_or_else(|| panic!("{} has no chain `{name}`", path.display()))
+            .median_ms
+    };
+    // Python in ms to three significant figures, ours to two decimals, the ratio of the
+    // unrounded medians to three significant figures (no decimals from 100 up).
+    let python = |ms: f64| {
+        if ms >= 100.0 {
+            format!("{ms:.0} ms")
+        } else {
+            format!("{ms:.1} ms")
+        }
+    };
+    let ratio = |r: f64| {
+        if r >= 100.0 {
+            format!("{r:.0}×")
+        } else {
+            format!("{r:.1}×")
+        }
+    };
+    let row = |python_chain: &str, ours: &str| {
+        let (p, o) = (chain(python_chain), chain(ours));
+        format!("| {} | {o:.2} ms | {} |", python(p), ratio(p / o))
+    };
+    let text = readme();
+    for expected in [row("authors_dbe", "dbe"), row("openradar_fft", "fft")] {
+        assert!(
+            text.contains(&expected),
+            "README's anchor table lacks the measured row end\n{expected}\n(from {}; run `{}`)",
+            path.display(),
+            xtask::anchors::ANCHORS_COMMAND
+        );
+    }
+}
+
 /// README's "Using the core from C" shows `ffi/c/example.c` complete, as it is.
 #[test]
 fn the_c_example_in_readme_is_the_tested_program() {
