@@ -7,8 +7,11 @@ use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use host_sim::cloud::PointRecord;
 use host_sim::core_run::{Chain, CoreRunner, Preset};
+use host_sim::io::atomic::write_file_synced;
 use host_sim::io::mcap::{write_mcap, McapFrame};
-use host_sim::io::pointcloud::{write_coloradar_bin, write_csv, write_pcd, write_ply, PlyEncoding};
+use host_sim::io::pointcloud::{
+    encode_coloradar_bin, encode_csv, encode_pcd, encode_ply, PlyEncoding,
+};
 use host_sim::io::{write_file_atomic, StagedDir};
 use host_sim::sensor::SensorConfig;
 use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
@@ -258,26 +261,40 @@ fn frame_folder(format: &Format) -> Option<&'static str> {
     }
 }
 
-/// The files of frame `r`, the `n`-th of the run, in every per-frame format of `formats`.
+/// The files of frame `r`, the `n`-th of the run, in every per-frame format of `formats`,
+/// under `dir`, a staging tree made for this run: each file is new there and is flushed to
+/// disk before this returns (the tree's commit is the atomic step, so the files need no
+/// temporary siblings of their own).
 fn write_frame_files(dir: &Path, formats: &[Format], n: usize, r: &FrameResult) -> Result<()> {
     for format in formats {
         let Some(folder) = frame_folder(format) else {
             continue;
         };
         let folder = dir.join(folder);
-        match format {
+        let (path, bytes) = match format {
             Format::Coloradar => {
-                write_coloradar_bin(&folder.join(format!("radar_pointcloud_{n}.bin")), &r.points)?
+                let path = folder.join(format!("radar_pointcloud_{n}.bin"));
+                let bytes = encode_coloradar_bin(&path, &r.points)?;
+                (path, bytes)
             }
-            Format::Csv => write_csv(&folder.join(format!("frame_{}.csv", r.index)), &r.points)?,
-            Format::Pcd => write_pcd(&folder.join(format!("frame_{}.pcd", r.index)), &r.points)?,
-            Format::Ply => write_ply(
-                &folder.join(format!("frame_{}.ply", r.index)),
-                &r.points,
-                PlyEncoding::BinaryLittleEndian,
-            )?,
-            Format::Mcap => {}
-        }
+            Format::Csv => {
+                let path = folder.join(format!("frame_{}.csv", r.index));
+                let bytes = encode_csv(&path, &r.points)?;
+                (path, bytes)
+            }
+            Format::Pcd => {
+                let path = folder.join(format!("frame_{}.pcd", r.index));
+                let bytes = encode_pcd(&path, &r.points)?;
+                (path, bytes)
+            }
+            Format::Ply => {
+                let path = folder.join(format!("frame_{}.ply", r.index));
+                let bytes = encode_ply(&path, &r.points, PlyEncoding::BinaryLittleEndian)?;
+                (path, bytes)
+            }
+            Format::Mcap => continue,
+        };
+        write_file_synced(&path, &bytes)?;
     }
     Ok(())
 }

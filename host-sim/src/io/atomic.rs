@@ -265,6 +265,16 @@ pub(crate) fn create_dir(dir: &Path) -> Result<(), IoError> {
     fs::create_dir_all(dir).map_err(|e| IoError::os(dir, "create directory", e))
 }
 
+/// Write a new file inside a staging tree and flush it to disk before returning: the tree's
+/// commit (a rename) is the atomic step, so the file needs no temporary sibling of its own,
+/// and once committed its content is on disk. Fails if `path` exists.
+pub fn write_file_synced(path: &Path, contents: &[u8]) -> Result<(), IoError> {
+    let mut f = fs::File::create_new(path).map_err(|e| IoError::os(path, "create", e))?;
+    f.write_all(contents)
+        .map_err(|e| IoError::os(path, "write", e))?;
+    f.sync_all().map_err(|e| IoError::os(path, "flush", e))
+}
+
 /// Write a file inside a staging tree (atomicity comes from the tree's rename).
 pub(crate) fn write_plain(path: &Path, contents: &[u8]) -> Result<(), IoError> {
     fs::write(path, contents).map_err(|e| IoError::os(path, "write", e))
@@ -312,6 +322,28 @@ mod tests {
         let s = StagedDir::inside(&other)?;
         write_plain(&other.join("intruder"), b"x")?;
         assert!(matches!(s.commit(), Err(IoError::OutputExists { .. })));
+        Ok(())
+    }
+
+    #[test]
+    fn a_synced_file_is_new_complete_and_never_replaces_one() -> Result<(), IoError> {
+        let tmp = tempfile::tempdir().map_err(|e| IoError::os(Path::new("tmp"), "create", e))?;
+        let s = StagedDir::new(&tmp.path().join("out"))?;
+        let path = s.path().join("frame_0.csv");
+        write_file_synced(&path, b"x,y\n1,2\n")?;
+        assert_eq!(fs::read(&path).ok().as_deref(), Some(&b"x,y\n1,2\n"[..]));
+        // No temporary sibling is left beside it.
+        assert_eq!(fs::read_dir(s.path()).map(|d| d.count()).unwrap_or(99), 1);
+        // A second write of the same frame is an error naming the file, and keeps the first.
+        let err = write_file_synced(&path, b"other").err();
+        assert!(
+            err.as_ref()
+                .is_some_and(|e| e.to_string().contains("frame_0.csv")),
+            "{err:?}"
+        );
+        assert_eq!(fs::read(&path).ok().as_deref(), Some(&b"x,y\n1,2\n"[..]));
+        s.commit()?;
+        assert!(tmp.path().join("out").join("frame_0.csv").is_file());
         Ok(())
     }
 

@@ -66,7 +66,12 @@ fn binary_points<const F: usize>(path: &Path, points: &[PointRecord]) -> Result<
 
 /// Write one ColoRadar point-cloud file (float32 LE `[x, y, z, intensity, doppler]` per point).
 pub fn write_coloradar_bin(path: &Path, points: &[PointRecord]) -> Result<(), IoError> {
-    write_file_atomic(path, &binary_points::<5>(path, points)?)
+    write_file_atomic(path, &encode_coloradar_bin(path, points)?)
+}
+
+/// The bytes [`write_coloradar_bin`] writes (`path` names the file in errors).
+pub fn encode_coloradar_bin(path: &Path, points: &[PointRecord]) -> Result<Vec<u8>, IoError> {
+    binary_points::<5>(path, points)
 }
 
 /// Read one ColoRadar point-cloud file. Only `x, y, z, intensity_db, doppler` are stored; the
@@ -229,6 +234,11 @@ pub fn read_coloradar_pointclouds(out: &Path) -> Result<Vec<(f64, Vec<PointRecor
 /// Write points as CSV with the header [`CSV_HEADER`], one row per point, floats in Rust's
 /// shortest round-trip form (so [`read_csv`] returns them bit-exact).
 pub fn write_csv(path: &Path, points: &[PointRecord]) -> Result<(), IoError> {
+    write_file_atomic(path, &encode_csv(path, points)?)
+}
+
+/// The bytes [`write_csv`] writes (`path` names the file in errors).
+pub fn encode_csv(path: &Path, points: &[PointRecord]) -> Result<Vec<u8>, IoError> {
     let mut s = String::with_capacity(64 * (points.len() + 1));
     s.push_str(CSV_HEADER);
     s.push('\n');
@@ -262,7 +272,7 @@ pub fn write_csv(path: &Path, points: &[PointRecord]) -> Result<(), IoError> {
             p.doppler_bin
         );
     }
-    write_file_atomic(path, s.as_bytes())
+    Ok(s.into_bytes())
 }
 
 /// Read a CSV written by [`write_csv`]: the first line must be exactly [`CSV_HEADER`]; every
@@ -345,6 +355,11 @@ pub fn read_csv(path: &Path) -> Result<Vec<PointRecord>, IoError> {
 /// Write points as a PCL PCD v0.7 file, `DATA binary`, fields `x y z intensity doppler snr`
 /// (float32 each), unorganised (`HEIGHT 1`).
 pub fn write_pcd(path: &Path, points: &[PointRecord]) -> Result<(), IoError> {
+    write_file_atomic(path, &encode_pcd(path, points)?)
+}
+
+/// The bytes [`write_pcd`] writes (`path` names the file in errors).
+pub fn encode_pcd(path: &Path, points: &[PointRecord]) -> Result<Vec<u8>, IoError> {
     let n = points.len();
     let mut out = format!(
         "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n\
@@ -354,7 +369,7 @@ pub fn write_pcd(path: &Path, points: &[PointRecord]) -> Result<(), IoError> {
     )
     .into_bytes();
     out.extend_from_slice(&binary_points::<6>(path, points)?);
-    write_file_atomic(path, &out)
+    Ok(out)
 }
 
 /// PLY body encoding.
@@ -373,6 +388,15 @@ pub fn write_ply(
     points: &[PointRecord],
     encoding: PlyEncoding,
 ) -> Result<(), IoError> {
+    write_file_atomic(path, &encode_ply(path, points, encoding)?)
+}
+
+/// The bytes [`write_ply`] writes (`path` names the file in errors).
+pub fn encode_ply(
+    path: &Path,
+    points: &[PointRecord],
+    encoding: PlyEncoding,
+) -> Result<Vec<u8>, IoError> {
     let format = match encoding {
         PlyEncoding::BinaryLittleEndian => "binary_little_endian",
         PlyEncoding::Ascii => "ascii",
@@ -388,14 +412,14 @@ pub fn write_ply(
         PlyEncoding::BinaryLittleEndian => {
             let mut bytes = out.into_bytes();
             bytes.extend_from_slice(&binary_points::<6>(path, points)?);
-            write_file_atomic(path, &bytes)
+            Ok(bytes)
         }
         PlyEncoding::Ascii => {
             for (i, p) in points.iter().enumerate() {
                 let [x, y, z, intensity, doppler, snr] = columns::<6>(path, i, p)?;
                 let _ = writeln!(out, "{x} {y} {z} {intensity} {doppler} {snr}");
             }
-            write_file_atomic(path, out.as_bytes())
+            Ok(out.into_bytes())
         }
     }
 }
