@@ -118,15 +118,34 @@ fn cross_pair<const K: usize, const B: usize>(
 
 /// SIMD width of [`covariance_lanes`] (one SSE register of `f32`).
 #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
-const LANES: usize = 4;
+pub(crate) const LANES: usize = 4;
 
 /// Column blocks [`covariance_lanes`] holds: up to 16 rows.
 #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
-const LANE_BLOCKS: usize = 4;
+pub(crate) const LANE_BLOCKS: usize = 4;
 
 /// Snapshots loop-major, real or imaginary parts, four rows per block: `[k][m / 4][m % 4]`.
 #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
-type Split<const K: usize> = [[[f32; LANES]; LANE_BLOCKS]; K];
+pub(crate) type Split<const K: usize> = [[[f32; LANES]; LANE_BLOCKS]; K];
+
+/// One range bin's first rows in the layout [`covariance_lanes`] sums from: real and
+/// imaginary parts apart, loop-major, four rows per block (lanes past the rows are zero).
+/// [`crate::cube::Frame::leading_split_factored`] decodes the cube straight into it.
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+#[derive(Clone, Debug)]
+pub(crate) struct SplitRows<const K: usize> {
+    pub(crate) re: Split<K>,
+    pub(crate) im: Split<K>,
+}
+
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+impl<const K: usize> SplitRows<K> {
+    /// All zero.
+    pub(crate) const ZERO: Self = Self {
+        re: [[[0.0; LANES]; LANE_BLOCKS]; K],
+        im: [[[0.0; LANES]; LANE_BLOCKS]; K],
+    };
+}
 
 /// [`covariance`] on a host, four columns `j` per SIMD operation: the snapshots are transposed
 /// loop-major with real and imaginary parts apart, so that loop `k` of four consecutive rows
@@ -144,19 +163,32 @@ fn covariance_lanes<const D: usize, const K: usize>(
 ) -> bool {
     let rows = &snapshots[..snapshots.len().min(D)];
     let n = rows.len();
-    let blocks = n.div_ceil(LANES);
-    if blocks > LANE_BLOCKS {
+    if n.div_ceil(LANES) > LANE_BLOCKS {
         return false;
     }
-    let mut re: Split<K> = [[[0.0; LANES]; LANE_BLOCKS]; K];
-    let mut im = re;
+    let mut split = SplitRows::<K>::ZERO;
     for (m, row) in rows.iter().enumerate() {
         let (b, l) = (m / LANES, m % LANES);
-        for ((re, im), v) in re.iter_mut().zip(im.iter_mut()).zip(row.iter()) {
+        for ((re, im), v) in split.re.iter_mut().zip(split.im.iter_mut()).zip(row.iter()) {
             re[b][l] = v.re;
             im[b][l] = v.im;
         }
     }
+    covariance_of_split(&split, n, r);
+    true
+}
+
+/// [`covariance`] of the first `n` rows held in `split` (at most 16; lanes from row `n` up
+/// to the end of its block zero): the sums of [`covariance_lanes`].
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+pub(crate) fn covariance_of_split<const D: usize, const K: usize>(
+    split: &SplitRows<K>,
+    n: usize,
+    r: &mut Matrix<D>,
+) {
+    let n = n.min(D).min(LANES * LANE_BLOCKS);
+    let blocks = n.div_ceil(LANES);
+    let (re, im) = (&split.re, &split.im);
     *r = zero::<D>();
     let scale = 1.0 / K as f32;
     // Row `i`'s sums with the columns of blocks `b0..`: its upper triangle (and the diagonal).
@@ -193,7 +225,6 @@ fn covariance_lanes<const D: usize, const K: usize>(
             _ => pass!(4),
         }
     }
-    true
 }
 
 /// The sums of rows `i` and `i + 1` (`i` even) with the `B` column blocks from `b0`:

@@ -421,6 +421,91 @@ impl<const N: usize, const K: usize, const M: usize> Frame<'_, N, K, M> {
     }
 }
 
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+impl<const N: usize, const K: usize, const M: usize> Frame<'_, N, K, M> {
+    /// Every chirp's `2^e` for the first `rows` rows, in the split layout
+    /// (`crate::covariance::Split`: `[loop][row / 4][row % 4]`, zero past the rows): the
+    /// multipliers of [`Self::leading_split`], the same for every range bin of the frame.
+    /// `false`, `out` untouched, for more rows than the layout holds.
+    pub(crate) fn chirp_scales(&self, rows: usize, out: &mut crate::covariance::Split<K>) -> bool {
+        use crate::covariance::{LANES, LANE_BLOCKS};
+        let rows = rows.min(M);
+        if rows.div_ceil(LANES) > LANE_BLOCKS {
+            return false;
+        }
+        for (k, blocks) in out.iter_mut().enumerate() {
+            for (blk, lanes) in blocks.iter_mut().enumerate() {
+                for (l, v) in lanes.iter_mut().enumerate() {
+                    let m = blk * LANES + l;
+                    *v = match self.exponent.get(m).and_then(|e| e.get(k)) {
+                        Some(&e) if m < rows => stored_pow2(e),
+                        _ => 0.0,
+                    };
+                }
+            }
+        }
+        true
+    }
+
+    /// The first rows of range bin `b` decoded straight into the split layout the host's
+    /// covariance sums from (`crate::covariance::SplitRows`): each mantissa times its chirp's
+    /// `scales` entry ([`Self::chirp_scales`] for as many rows), so the same values as
+    /// [`Self::leading_snapshots`], read loop by loop in the cube's `[loop][row]` order with no
+    /// `f32` snapshot block in between (issue 13: decoding and transposing were two passes of
+    /// the azimuth stage). Only the blocks holding the first `rows` rows are written; lanes
+    /// past the rows in them are zero. A bin off the cube is all zero.
+    pub(crate) fn leading_split(
+        &self,
+        b: usize,
+        rows: usize,
+        scales: &crate::covariance::Split<K>,
+        out: &mut crate::covariance::SplitRows<K>,
+    ) {
+        use crate::covariance::{LANES, LANE_BLOCKS};
+        let blocks = rows.min(M).div_ceil(LANES).min(LANE_BLOCKS);
+        let Some(bin) = self.bins.get(b) else {
+            *out = crate::covariance::SplitRows::ZERO;
+            return;
+        };
+        for (((re, im), snapshot), scale) in out
+            .re
+            .iter_mut()
+            .zip(out.im.iter_mut())
+            .zip(bin.iter())
+            .zip(scales.iter())
+        {
+            // Whole blocks of four rows as fixed-size chunks (the compiler vectorises them),
+            // a block the cube's rows do not fill lane by lane; a zero scale clears a lane.
+            let mut chunks = snapshot.chunks_exact(LANES);
+            for (((re, im), chunk), scale) in re
+                .iter_mut()
+                .zip(im.iter_mut())
+                .zip(&mut chunks)
+                .zip(scale.iter())
+                .take(blocks)
+            {
+                for (((r, i), s), f) in re.iter_mut().zip(im.iter_mut()).zip(chunk).zip(scale) {
+                    *r = f32::from(s[0]) * f;
+                    *i = f32::from(s[1]) * f;
+                }
+            }
+            let whole = M / LANES;
+            if let (Some(re), Some(im), Some(scale)) =
+                (re.get_mut(whole), im.get_mut(whole), scale.get(whole))
+            {
+                if whole < blocks {
+                    for (l, ((r, i), f)) in re.iter_mut().zip(im.iter_mut()).zip(scale).enumerate()
+                    {
+                        let s = chunks.remainder().get(l).copied().unwrap_or([0, 0]);
+                        *r = f32::from(s[0]) * f;
+                        *i = f32::from(s[1]) * f;
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// Row `r` of one range bin's mantissas times their chirps' `2^e`, as `f32` (zeros for a row
 /// off the bin).
 #[inline(always)]
@@ -714,6 +799,67 @@ mod tests {
             if b < N {
                 assert!(want[0][0].re > 0.0 && want[1][1].re > 0.0 && want[0][1].norm() > 0.0);
                 assert_ne!(f[0], 1.0, "the uniform row's exponent is factored out");
+            }
+        }
+    }
+
+    /// The host's split decoding (each mantissa times its chirp's `2^e`, straight into the
+    /// SIMD covariance's layout) gives the covariance of the decoded snapshots bit for bit: rows
+    /// with one exponent, with changing exponents and all zero, 2 to 6 rows (a partial block
+    /// from whole chunks and from the cube's last, short one), and a bin off the cube.
+    #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+    #[test]
+    fn split_rows_give_the_decoded_covariance_bit_for_bit() {
+        const N: usize = 3;
+        const K: usize = 8;
+        const M: usize = 6;
+        let mut storage = zero_storage::<N, K, M>();
+        let mut cube = Cube::<N, K, M>::new(&mut storage);
+        for k in 0..K {
+            for row in 0..M {
+                let scale = match row {
+                    0 => 1234.5,
+                    1 | 4 => [3.0e4f32, 470.0, 2.9e6][(k + row) % 3],
+                    2 => 0.75,
+                    3 => 0.0,
+                    _ => -88.0,
+                };
+                let spectrum: [Complex32; N] = core::array::from_fn(|n| {
+                    let x = (n * 5 + k * 3 + row) as f32;
+                    Complex32::new(scale * libm::sinf(x), scale * libm::cosf(1.7 * x))
+                });
+                cube.store(row, k, &spectrum);
+            }
+        }
+        cube.received = K as u32;
+        let frame = cube
+            .frame(1)
+            .expect("K chirps of one slot are a whole frame");
+        assert_eq!(frame.uniform[1], None);
+        for rows in 2..=M {
+            let mut scales = crate::covariance::SplitRows::<K>::ZERO.re;
+            assert!(frame.chirp_scales(rows, &mut scales));
+            for b in 0..=N {
+                let mut decoded = [[ZERO_C; K]; M];
+                frame.snapshots(b, &mut decoded);
+                let mut split = crate::covariance::SplitRows::<K>::ZERO;
+                frame.leading_split(b, rows, &scales, &mut split);
+                let (mut want, mut got) = (
+                    crate::covariance::zero::<M>(),
+                    crate::covariance::zero::<M>(),
+                );
+                crate::covariance::covariance(&decoded[..rows], &mut want);
+                crate::covariance::covariance_of_split(&split, rows, &mut got);
+                for (w, g) in want.iter().flatten().zip(got.iter().flatten()) {
+                    assert_eq!(
+                        (w.re.to_bits(), w.im.to_bits()),
+                        (g.re.to_bits(), g.im.to_bits()),
+                        "{rows} rows, bin {b}: {w} vs {g}"
+                    );
+                }
+                if b < N {
+                    assert!(want[0][0].re > 0.0 && want[1][1].re > 0.0);
+                }
             }
         }
     }

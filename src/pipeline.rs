@@ -548,14 +548,35 @@ impl<
         }
         work.floor = [0.0; N];
         work.skipped_range_bins = 0;
+        // On a host the line's rows are decoded straight into the layout its SIMD covariance
+        // sums from (bit-identical to the snapshot block below, one pass instead of two).
+        #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+        let (mut split, mut scales) = (
+            crate::covariance::SplitRows::<K>::ZERO,
+            crate::covariance::SplitRows::<K>::ZERO.re,
+        );
+        #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+        let split_ok = frame.chirp_scales(AZ, &mut scales);
         for b in first..=last {
             let (Some(ra), Some(floor)) = (work.ra.get_mut(b), work.floor.get_mut(b)) else {
                 continue;
             };
             // Only the azimuth line's rows are read below.
+            #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
             let factor = frame.leading_snapshots_factored(b, AZ, &mut work.block);
             let mut cov = zero::<AZ>();
+            #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
             covariance(&work.block[..], &mut cov);
+            #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+            let factor = if split_ok {
+                frame.leading_split(b, AZ, &scales, &mut split);
+                crate::covariance::covariance_of_split(&split, AZ, &mut cov);
+                [1.0; M]
+            } else {
+                let factor = frame.leading_snapshots_factored(b, AZ, &mut work.block);
+                covariance(&work.block[..], &mut cov);
+                factor
+            };
             scale_rows(&mut cov, &factor);
             match self.azimuth_capon(&cov) {
                 Some((capon, delta, n)) => {
