@@ -160,7 +160,28 @@ fn the_anchor_table_is_the_measured_one() {
         let (p, o) = (chain(python_chain), chain(ours));
         format!("| {} | {o:.2} ms | {} |", python(p), ratio(p / o))
     };
+    let points = |name: &str| {
+        anchors
+            .chain(name)
+            .and_then(|c| c.points_per_frame)
+            .unwrap_or_else(|| panic!("{} has no point count of `{name}`", path.display()))
+    };
     let text = readme();
+    let flat = |s: &str| s.split_whitespace().collect::<Vec<_>>().join(" ");
+    let counts = format!(
+        "the authors' chain gives {:.0} points per frame",
+        points("authors_dbe")
+    );
+    let openradar = format!(
+        "OpenRadar's {:.1} with its demo's thresholds",
+        points("openradar_fft")
+    );
+    for expected in [counts, openradar] {
+        assert!(
+            flat(&text).contains(&expected),
+            "README lacks the measured point count\n{expected}"
+        );
+    }
     for expected in [row("authors_dbe", "dbe"), row("openradar_fft", "fft")] {
         assert!(
             text.contains(&expected),
