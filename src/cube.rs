@@ -745,6 +745,42 @@ mod tests {
         }
     }
 
+    /// A whole one-slot frame of `K` chirps whose row `row`, loop `k` is a sinusoid pattern of
+    /// amplitude `scale(row, k)`.
+    fn scaled_rows_cube<const N: usize, const K: usize, const M: usize>(
+        storage: &mut CubeStorage<N, K, M>,
+        scale: impl Fn(usize, usize) -> f32,
+    ) -> Cube<'_, N, K, M> {
+        let mut cube = Cube::<N, K, M>::new(storage);
+        for k in 0..K {
+            for row in 0..M {
+                let a = scale(row, k);
+                let spectrum: [Complex32; N] = core::array::from_fn(|n| {
+                    let x = (n * 5 + k * 3 + row) as f32;
+                    Complex32::new(a * libm::sinf(x), a * libm::cosf(1.7 * x))
+                });
+                cube.store(row, k, &spectrum);
+            }
+        }
+        cube.received = K as u32;
+        cube
+    }
+
+    /// Every entry of `got` is `want`'s bit for bit.
+    fn assert_same_bits<const D: usize>(
+        want: &crate::covariance::Matrix<D>,
+        got: &crate::covariance::Matrix<D>,
+        what: &str,
+    ) {
+        for (w, g) in want.iter().flatten().zip(got.iter().flatten()) {
+            assert_eq!(
+                (w.re.to_bits(), w.im.to_bits()),
+                (g.re.to_bits(), g.im.to_bits()),
+                "{what}: {w} vs {g}"
+            );
+        }
+    }
+
     /// The azimuth stage's decoding (exponent factored out of uniform rows, put back on the
     /// covariance) gives the decoded covariance bit for bit, for a uniform row, a row whose
     /// chirps have three different exponents, a zero row and an out-of-cube bin.
@@ -754,25 +790,14 @@ mod tests {
         const K: usize = 8;
         const M: usize = 4;
         let mut storage = zero_storage::<N, K, M>();
-        let mut cube = Cube::<N, K, M>::new(&mut storage);
-        for k in 0..K {
-            for row in 0..M {
-                // Row 0: one scale (one exponent); row 1: the scale changes by 2^±6 between
-                // loops; row 2: another steady scale; row 3: all zero.
-                let scale = match row {
-                    0 => 1234.5,
-                    1 => [3.0e4f32, 470.0, 2.9e6][k % 3],
-                    2 => 0.75,
-                    _ => 0.0,
-                };
-                let spectrum: [Complex32; N] = core::array::from_fn(|n| {
-                    let x = (n * 5 + k * 3 + row) as f32;
-                    Complex32::new(scale * libm::sinf(x), scale * libm::cosf(1.7 * x))
-                });
-                cube.store(row, k, &spectrum);
-            }
-        }
-        cube.received = K as u32;
+        // Row 0: one scale (one exponent); row 1: the scale changes by 2^±6 between loops;
+        // row 2: another steady scale; row 3: all zero.
+        let cube = scaled_rows_cube(&mut storage, |row, k| match row {
+            0 => 1234.5,
+            1 => [3.0e4f32, 470.0, 2.9e6][k % 3],
+            2 => 0.75,
+            _ => 0.0,
+        });
         let frame = cube
             .frame(1)
             .expect("K chirps of one slot are a whole frame");
@@ -789,13 +814,7 @@ mod tests {
             crate::covariance::covariance(&decoded[..], &mut want);
             crate::covariance::covariance(&factored[..], &mut got);
             crate::covariance::scale_rows(&mut got, &f);
-            for (w, g) in want.iter().flatten().zip(got.iter().flatten()) {
-                assert_eq!(
-                    (w.re.to_bits(), w.im.to_bits()),
-                    (g.re.to_bits(), g.im.to_bits()),
-                    "bin {b}: {w} vs {g}"
-                );
-            }
+            assert_same_bits(&want, &got, &format!("bin {b}"));
             if b < N {
                 assert!(want[0][0].re > 0.0 && want[1][1].re > 0.0 && want[0][1].norm() > 0.0);
                 assert_ne!(f[0], 1.0, "the uniform row's exponent is factored out");
@@ -814,24 +833,13 @@ mod tests {
         const K: usize = 8;
         const M: usize = 6;
         let mut storage = zero_storage::<N, K, M>();
-        let mut cube = Cube::<N, K, M>::new(&mut storage);
-        for k in 0..K {
-            for row in 0..M {
-                let scale = match row {
-                    0 => 1234.5,
-                    1 | 4 => [3.0e4f32, 470.0, 2.9e6][(k + row) % 3],
-                    2 => 0.75,
-                    3 => 0.0,
-                    _ => -88.0,
-                };
-                let spectrum: [Complex32; N] = core::array::from_fn(|n| {
-                    let x = (n * 5 + k * 3 + row) as f32;
-                    Complex32::new(scale * libm::sinf(x), scale * libm::cosf(1.7 * x))
-                });
-                cube.store(row, k, &spectrum);
-            }
-        }
-        cube.received = K as u32;
+        let cube = scaled_rows_cube(&mut storage, |row, k| match row {
+            0 => 1234.5,
+            1 | 4 => [3.0e4f32, 470.0, 2.9e6][(k + row) % 3],
+            2 => 0.75,
+            3 => 0.0,
+            _ => -88.0,
+        });
         let frame = cube
             .frame(1)
             .expect("K chirps of one slot are a whole frame");
@@ -850,13 +858,7 @@ mod tests {
                 );
                 crate::covariance::covariance(&decoded[..rows], &mut want);
                 crate::covariance::covariance_of_split(&split, rows, &mut got);
-                for (w, g) in want.iter().flatten().zip(got.iter().flatten()) {
-                    assert_eq!(
-                        (w.re.to_bits(), w.im.to_bits()),
-                        (g.re.to_bits(), g.im.to_bits()),
-                        "{rows} rows, bin {b}: {w} vs {g}"
-                    );
-                }
+                assert_same_bits(&want, &got, &format!("{rows} rows, bin {b}"));
                 if b < N {
                     assert!(want[0][0].re > 0.0 && want[1][1].re > 0.0);
                 }
