@@ -37,6 +37,10 @@ pub const ANCHOR_PACKAGES: &[&str] = &[
 ];
 /// Frames of the corridor timed per Python chain (`dbe bench` renders as many distinct ones).
 pub const ANCHOR_FRAMES: usize = 8;
+/// Frames of the corridor recording `dbe process` is timed on (issue 13's throughput goal).
+pub const PROCESS_FRAMES: usize = 300;
+/// Timed `dbe process` runs (after one untimed run that fills the page cache).
+pub const PROCESS_RUNS: usize = 7;
 /// The command that regenerates `docs/anchors.json`.
 pub const ANCHORS_COMMAND: &str = "cargo xtask anchors";
 
@@ -71,6 +75,24 @@ pub struct Anchors {
     pub python_chains: Vec<ChainTime>,
     /// This project's chains (`dbe bench`).
     pub ours: Vec<ChainTime>,
+    /// `dbe process` on a recording, all cores.
+    pub process: ProcessThroughput,
+}
+
+/// Frames per second of `dbe process` (its `run.json`'s `frames_per_second`: reading,
+/// processing and writing the ColoRadar point files, from the page cache).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ProcessThroughput {
+    /// The command timed.
+    pub command: String,
+    /// Frames of the recording.
+    pub frames: usize,
+    /// Threads the machine offers (`std::thread::available_parallelism`).
+    pub threads: usize,
+    /// Frames per second of each timed run, in run order.
+    pub runs: Vec<f64>,
+    /// Their median.
+    pub median_fps: f64,
 }
 
 impl Anchors {
@@ -235,6 +257,8 @@ pub fn measure(layout: &Layout, dbe_radar: Option<&Path>) -> Result<Anchors, Fir
         })
         .collect::<Result<Vec<_>, FirmwareError>>()?;
 
+    let process = time_process(&dbe, layout, &work, long)?;
+
     let anchors = Anchors {
         method: format!(
             "simulated corridor frames (host-sim/scenes/corridor.toml, the `dbe bench` default), \
@@ -260,11 +284,75 @@ pub fn measure(layout: &Layout, dbe_radar: Option<&Path>) -> Result<Anchors, Fir
             })
             .collect(),
         ours,
+        process,
     };
     let path = anchors_json(layout);
     let text = serde_json::to_string_pretty(&anchors).expect("plain data serialises") + "\n";
     std::fs::write(&path, text).map_err(io_err(&path, "write"))?;
     Ok(anchors)
+}
+
+/// `dbe process` on [`PROCESS_FRAMES`] simulated corridor frames, [`PROCESS_RUNS`] times.
+fn time_process(
+    dbe: &Path,
+    layout: &Layout,
+    work: &Path,
+    timeout: Duration,
+) -> Result<ProcessThroughput, FirmwareError> {
+    let seq = work.join("corridor-process");
+    if seq.exists() {
+        std::fs::remove_dir_all(&seq).map_err(io_err(&seq, "remove"))?;
+    }
+    let mut simulate = Command::new(dbe);
+    simulate
+        .arg("simulate")
+        .arg("--scene")
+        .arg(
+            layout
+                .repo
+                .join("host-sim")
+                .join("scenes")
+                .join("corridor.toml"),
+        )
+        .args(["--frames", &PROCESS_FRAMES.to_string(), "--out"])
+        .arg(&seq);
+    run_command(simulate, timeout)?;
+    let out = work.join("process-out");
+    let mut runs = Vec::with_capacity(PROCESS_RUNS);
+    for run in 0..=PROCESS_RUNS {
+        if out.exists() {
+            std::fs::remove_dir_all(&out).map_err(io_err(&out, "remove"))?;
+        }
+        let mut process = Command::new(dbe);
+        process.arg("process").arg(&seq).arg("--out").arg(&out);
+        run_command(process, timeout)?;
+        let record = out.join("run.json");
+        let text = std::fs::read_to_string(&record).map_err(io_err(&record, "read"))?;
+        let fps = serde_json::from_str::<serde_json::Value>(&text)
+            .ok()
+            .and_then(|v| {
+                v.get("frames_per_second")
+                    .and_then(serde_json::Value::as_f64)
+            })
+            .ok_or_else(|| FirmwareError::BadInput {
+                path: record.clone(),
+                message: "no number `frames_per_second`".into(),
+            })?;
+        // Run 0 fills the page cache and is not counted.
+        if run > 0 {
+            runs.push(fps);
+        }
+    }
+    std::fs::remove_dir_all(&out).map_err(io_err(&out, "remove"))?;
+    let mut sorted = runs.clone();
+    sorted.sort_by(f64::total_cmp);
+    Ok(ProcessThroughput {
+        command: format!("dbe process <{PROCESS_FRAMES} corridor frames> --out <dir> (DBE chain, ColoRadar point files)"),
+        frames: PROCESS_FRAMES,
+        threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        median_fps: sorted[sorted.len() / 2],
+        runs,
+    })
 }
 
 /// The table `cargo xtask anchors` prints.
@@ -276,6 +364,10 @@ pub fn render(a: &Anchors) -> String {
     for c in a.python_chains.iter().chain(&a.ours) {
         s += &format!("| {} ({}) | {:.3} |\n", c.chain, c.code, c.median_ms);
     }
+    s += &format!(
+        "\n`dbe process`, {} frames, {} threads: median {:.0} frames/s over {:?}\n",
+        a.process.frames, a.process.threads, a.process.median_fps, a.process.runs
+    );
     s
 }
 

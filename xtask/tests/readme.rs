@@ -176,7 +176,23 @@ fn the_anchor_table_is_the_measured_one() {
         "OpenRadar's {:.1} with its demo's thresholds",
         points("openradar_fft")
     );
-    for expected in [counts, openradar] {
+    let pr = &anchors.process;
+    let (lo, hi) = pr
+        .runs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &r| {
+            (lo.min(r), hi.max(r))
+        });
+    let process = format!(
+        "The same command times `dbe process` on {} simulated corridor frames (DBE chain, \
+         ColoRadar point files written and flushed, the recording in the page cache, {} \
+         threads): median {:.0} frames/s over {} runs ({lo:.0}–{hi:.0})",
+        pr.frames,
+        pr.threads,
+        pr.median_fps,
+        pr.runs.len()
+    );
+    for expected in [counts, openradar, process] {
         assert!(
             flat(&text).contains(&expected),
             "README lacks the measured point count\n{expected}"
