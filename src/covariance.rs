@@ -128,9 +128,15 @@ pub(crate) const LANE_BLOCKS: usize = 4;
 #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
 pub(crate) type Split<const K: usize> = [[[f32; LANES]; LANE_BLOCKS]; K];
 
+/// The all-zero [`Split`].
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+pub(crate) const fn zero_split<const K: usize>() -> Split<K> {
+    [[[0.0; LANES]; LANE_BLOCKS]; K]
+}
+
 /// One range bin's first rows in the layout [`covariance_lanes`] sums from: real and
 /// imaginary parts apart, loop-major, four rows per block (lanes past the rows are zero).
-/// [`crate::cube::Frame::leading_split_factored`] decodes the cube straight into it.
+/// [`crate::cube::Frame::leading_split`] decodes the cube straight into it.
 #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
 #[derive(Clone, Debug)]
 pub(crate) struct SplitRows<const K: usize> {
@@ -142,8 +148,8 @@ pub(crate) struct SplitRows<const K: usize> {
 impl<const K: usize> SplitRows<K> {
     /// All zero.
     pub(crate) const ZERO: Self = Self {
-        re: [[[0.0; LANES]; LANE_BLOCKS]; K],
-        im: [[[0.0; LANES]; LANE_BLOCKS]; K],
+        re: zero_split(),
+        im: zero_split(),
     };
 }
 

@@ -845,7 +845,7 @@ mod tests {
             .expect("K chirps of one slot are a whole frame");
         assert_eq!(frame.uniform[1], None);
         for rows in 2..=M {
-            let mut scales = crate::covariance::SplitRows::<K>::ZERO.re;
+            let mut scales = crate::covariance::zero_split::<K>();
             assert!(frame.chirp_scales(rows, &mut scales));
             for b in 0..=N {
                 let mut decoded = [[ZERO_C; K]; M];

@@ -553,7 +553,7 @@ impl<
         #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
         let (mut split, mut scales) = (
             crate::covariance::SplitRows::<K>::ZERO,
-            crate::covariance::SplitRows::<K>::ZERO.re,
+            crate::covariance::zero_split::<K>(),
         );
         #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
         let split_ok = frame.chirp_scales(AZ, &mut scales);
