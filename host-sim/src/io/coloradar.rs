@@ -286,13 +286,12 @@ fn decode_frame(bytes: &[u8], s: &SensorConfig) -> AdcFrame {
                     // the chirp (the buffer is the allocator's, aligned, and `at` a multiple
                     // of 4, so the cast succeeds; 4.6 % of `dbe process`'s CPU time went to
                     // converting sample by sample).
-                    Some(chirp) if cfg!(target_endian = "little") => {
-                        match bytemuck::try_cast_slice::<u8, [i16; 2]>(chirp) {
-                            Ok(samples) => data.extend_from_slice(samples),
-                            Err(_) => data.extend(chirp.chunks_exact(4).map(le_sample)),
+                    Some(chirp) => match bytemuck::try_cast_slice::<u8, [i16; 2]>(chirp) {
+                        Ok(samples) if cfg!(target_endian = "little") => {
+                            data.extend_from_slice(samples)
                         }
-                    }
-                    Some(chirp) => data.extend(chirp.chunks_exact(4).map(le_sample)),
+                        _ => data.extend(chirp.chunks_exact(4).map(le_sample)),
+                    },
                     // Beyond a short `bytes` (the caller checks the length): zeros, in place.
                     None => data.extend(std::iter::repeat_n([0, 0], s.samples)),
                 }
