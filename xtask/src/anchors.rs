@@ -191,24 +191,7 @@ pub fn measure(layout: &Layout, dbe_radar: Option<&Path>) -> Result<Anchors, Fir
     ]);
     run_command(build, long)?;
     let dbe = layout.repo.join("target").join("release").join("dbe");
-    let seq = work.join("corridor");
-    if seq.exists() {
-        std::fs::remove_dir_all(&seq).map_err(io_err(&seq, "remove"))?;
-    }
-    let mut simulate = Command::new(&dbe);
-    simulate
-        .arg("simulate")
-        .arg("--scene")
-        .arg(
-            layout
-                .repo
-                .join("host-sim")
-                .join("scenes")
-                .join("corridor.toml"),
-        )
-        .args(["--frames", &ANCHOR_FRAMES.to_string(), "--out"])
-        .arg(&seq);
-    run_command(simulate, long)?;
+    let seq = simulate_corridor(&dbe, layout, &work.join("corridor"), ANCHOR_FRAMES, long)?;
 
     let python_json = work.join("python.json");
     let mut script = Command::new(&python);
@@ -292,6 +275,34 @@ pub fn measure(layout: &Layout, dbe_radar: Option<&Path>) -> Result<Anchors, Fir
     Ok(anchors)
 }
 
+/// `dbe simulate` of `frames` frames of the corridor scene (`dbe bench`'s) into `seq`,
+/// replacing what is there; `seq`.
+fn simulate_corridor(
+    dbe: &Path,
+    layout: &Layout,
+    seq: &Path,
+    frames: usize,
+    timeout: Duration,
+) -> Result<PathBuf, FirmwareError> {
+    if seq.exists() {
+        std::fs::remove_dir_all(seq).map_err(io_err(seq, "remove"))?;
+    }
+    let scene = layout
+        .repo
+        .join("host-sim")
+        .join("scenes")
+        .join("corridor.toml");
+    let mut simulate = Command::new(dbe);
+    simulate
+        .arg("simulate")
+        .arg("--scene")
+        .arg(scene)
+        .args(["--frames", &frames.to_string(), "--out"])
+        .arg(seq);
+    run_command(simulate, timeout)?;
+    Ok(seq.to_path_buf())
+}
+
 /// `dbe process` on [`PROCESS_FRAMES`] simulated corridor frames, [`PROCESS_RUNS`] times.
 fn time_process(
     dbe: &Path,
@@ -299,24 +310,13 @@ fn time_process(
     work: &Path,
     timeout: Duration,
 ) -> Result<ProcessThroughput, FirmwareError> {
-    let seq = work.join("corridor-process");
-    if seq.exists() {
-        std::fs::remove_dir_all(&seq).map_err(io_err(&seq, "remove"))?;
-    }
-    let mut simulate = Command::new(dbe);
-    simulate
-        .arg("simulate")
-        .arg("--scene")
-        .arg(
-            layout
-                .repo
-                .join("host-sim")
-                .join("scenes")
-                .join("corridor.toml"),
-        )
-        .args(["--frames", &PROCESS_FRAMES.to_string(), "--out"])
-        .arg(&seq);
-    run_command(simulate, timeout)?;
+    let seq = simulate_corridor(
+        dbe,
+        layout,
+        &work.join("corridor-process"),
+        PROCESS_FRAMES,
+        timeout,
+    )?;
     let out = work.join("process-out");
     let mut runs = Vec::with_capacity(PROCESS_RUNS);
     for run in 0..=PROCESS_RUNS {
