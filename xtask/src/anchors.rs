@@ -37,6 +37,8 @@ pub const ANCHOR_PACKAGES: &[&str] = &[
 ];
 /// Frames of the corridor timed per Python chain (`dbe bench` renders as many distinct ones).
 pub const ANCHOR_FRAMES: usize = 8;
+/// Frames `dbe bench` times per chain for the anchors.
+pub const BENCH_FRAMES: usize = 50;
 /// Frames of the corridor recording `dbe process` is timed on (issue 13's throughput goal).
 pub const PROCESS_FRAMES: usize = 300;
 /// Timed `dbe process` runs (after one untimed run that fills the page cache).
@@ -176,6 +178,20 @@ pub fn measure(layout: &Layout, dbe_radar: Option<&Path>) -> Result<Anchors, Fir
             message: format!("not a checkout of {AUTHORS_REPO} (no core/radar.py)"),
         });
     }
+    // What was run: the checkout's own commit when it is a git checkout (a `--dbe-radar` folder
+    // may be at another one), else the expected one, marked as not verified.
+    let commit = {
+        let mut head = Command::new("git");
+        head.arg("-C").arg(&checkout).args(["rev-parse", "HEAD"]);
+        match checkout.join(".git").exists() {
+            true => run_command(head, long)?
+                .trim()
+                .chars()
+                .take(7)
+                .collect::<String>(),
+            false => format!("{} (not a git checkout: unverified)", &AUTHORS_COMMIT[..7]),
+        }
+    };
 
     // The frames, and our figures on the same scene.
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
@@ -209,7 +225,7 @@ pub fn measure(layout: &Layout, dbe_radar: Option<&Path>) -> Result<Anchors, Fir
         )
         .arg("--dbe-radar")
         .arg(&checkout)
-        .args(["--commit", &AUTHORS_COMMIT[..7], "--out"])
+        .args(["--commit", &commit, "--out"])
         .arg(&python_json);
     run_command(script, long)?;
     let py: PythonRun = {
@@ -221,7 +237,7 @@ pub fn measure(layout: &Layout, dbe_radar: Option<&Path>) -> Result<Anchors, Fir
     };
 
     let mut bench = Command::new(&dbe);
-    bench.args(["bench", "--frames", "50"]);
+    bench.args(["bench", "--frames", &BENCH_FRAMES.to_string()]);
     let table = run_command(bench, long)?;
     let ours = ["dbe", "fft"]
         .into_iter()
@@ -232,9 +248,9 @@ pub fn measure(layout: &Layout, dbe_radar: Option<&Path>) -> Result<Anchors, Fir
             })?;
             Ok(ChainTime {
                 chain: chain.into(),
-                code: format!("dbe-radar, `dbe bench --frames 50`, {chain} chain"),
+                code: format!("dbe-radar, `dbe bench --frames {BENCH_FRAMES}`, {chain} chain"),
                 median_ms: ms,
-                frames: 50,
+                frames: BENCH_FRAMES,
                 points_per_frame: None,
             })
         })
@@ -247,7 +263,7 @@ pub fn measure(layout: &Layout, dbe_radar: Option<&Path>) -> Result<Anchors, Fir
             "simulated corridor frames (host-sim/scenes/corridor.toml, the `dbe bench` default), \
              ColoRadar preset; every chain on one thread (BLAS threads pinned to 1), median wall \
              time per frame; the Python chains over {ANCHOR_FRAMES} frames after one warm-up, \
-             ours over 50 after two"
+             ours over {BENCH_FRAMES} after two"
         ),
         command: ANCHORS_COMMAND.into(),
         cpu: cpu_model(),

@@ -104,7 +104,8 @@ pub type FrameSink<'a> = dyn Fn(usize, &FrameResult) -> Result<()> + Sync + 'a;
 
 /// Threads that run the [`FrameSink`]: writing a file and flushing it to disk mostly waits, and
 /// the file system merges concurrent flushes into fewer journal commits (300 ColoRadar point
-/// files, written after the frames: 0.10–0.12 s on one thread, 0.06 s on 8, 0.06–0.08 s on 32).
+/// files, written after the frames: 0.10–0.12 s on one thread, 0.06 s on 8, 0.06–0.08 s on 32;
+/// measured when each file still took a temporary sibling and a rename).
 const WRITERS: usize = 8;
 
 /// [`run_frames`], handing every frame's result to `sink` on [`WRITERS`] threads of its own
