@@ -6,8 +6,10 @@
 //! ```
 //!
 //! `ingest` is `Frontend::push_chirp` for the frame's 384 chirps and the frame check; each
-//! chain stage runs on a workspace the previous stage filled (the stages are idempotent), so
-//! the sum of a chain's stages is its `process`.
+//! chain stage runs on a workspace the previous stages filled (the stages are idempotent), so
+//! the sum of a chain's stages is its `process`. The previous stages are run before each
+//! benchmark, not left to the benchmarks before it: a filter
+//! (`cargo bench -p host-sim --bench stages -- dbe/elevation_doppler`) skips those.
 
 // `criterion_group!` defines an undocumented `pub fn benches`.
 #![allow(missing_docs)]
@@ -77,7 +79,13 @@ fn stages(c: &mut Criterion) {
     c.bench_function("dbe/azimuth_capon", |b| {
         b.iter(|| dbe.map(&frame, &mut work))
     });
+    dbe.map(&frame, &mut work);
     c.bench_function("dbe/cfar", |b| b.iter(|| dbe.detect(&mut work)));
+    dbe.detect(&mut work);
+    assert!(
+        !p::Dbe::detections(&work).is_empty(),
+        "the frame has DBE detections"
+    );
     c.bench_function("dbe/elevation_doppler", |b| {
         b.iter(|| dbe.points(&frame, &mut work, &mut cloud))
     });
@@ -89,7 +97,13 @@ fn stages(c: &mut Criterion) {
     c.bench_function("fft/doppler_fft", |b| {
         b.iter(|| fft.map(&frame, &mut fwork))
     });
+    fft.map(&frame, &mut fwork);
     c.bench_function("fft/rd_cfar", |b| b.iter(|| fft.detect(&mut fwork)));
+    fft.detect(&mut fwork);
+    assert!(
+        !p::FftChain::detections(&fwork).is_empty(),
+        "the frame has FFT detections"
+    );
     c.bench_function("fft/angles", |b| {
         b.iter(|| fft.points(&frame, &mut fwork, &mut cloud))
     });
