@@ -337,7 +337,7 @@ pub fn defaults_sweep() -> Vec<SweepValue> {
     for g in [1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1] {
         v.push(SweepValue::Loading(g));
     }
-    for a in [1.0, 2.0, 2.5, 3.0, 4.0, 6.0, 8.0, 12.0] {
+    for a in [1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 6.0, 8.0, 12.0] {
         v.push(SweepValue::CfarThreshold(a));
     }
     for q in [0.25, 0.5, 0.625, 0.75, 0.875] {

@@ -682,8 +682,48 @@ fn surfaces_section(m: &mut String, e: &Evaluation) {
             with the lowest mean per-frame Chamfer distance is {} dB on the plain scenes ({:.3} m, {:.2} false points per \
             frame) and {} dB on the realistic ones ({:.3} m, {:.2} false points per frame); the default is {} dB.",
             p.0, p.1, p.2, q.0, q.1, q.2, dbe_radar::CfarParams::RANGE_AZIMUTH.threshold_db);
+        let _ = writeln!(m, "\n{}", loop_scaling());
     }
     let _ = writeln!(m);
+}
+
+/// What the loop count does to the threshold: the sentence of the report's threshold paragraph.
+fn loop_scaling() -> String {
+    use dbe_radar::presets::{coloradar as c, iwr6843 as ti};
+    let default = dbe_radar::CfarParams::RANGE_AZIMUTH.threshold_db;
+    let alpha = scaled_threshold_db(default, (ti::LOOPS, ti::AZIMUTH), (c::LOOPS, c::AZIMUTH));
+    let nearest = super::defaults_sweep()
+        .into_iter()
+        .filter_map(|v| match v {
+            super::SweepValue::CfarThreshold(a) => Some(a),
+            _ => None,
+        })
+        .min_by(|a, b| {
+            (f64::from(*a) - alpha)
+                .abs()
+                .total_cmp(&(f64::from(*b) - alpha).abs())
+        })
+        .unwrap_or(default);
+    format!(
+        "A Capon power estimated from K loops on an AZ-element line spreads about its mean by \
+         1/√(K − AZ + 1) (Capon and Goodman: from the sample covariance of white noise it is \
+         a scaled χ² with 2(K − AZ + 1) degrees of freedom; the map's forward–backward \
+         averaging narrows it at both loop counts by about the same factor), so a threshold \
+         that keeps one false-alarm probability in noise scales as α − 1 ∝ 1/√(K − AZ + 1). The {default} dB that the TI capture supports at its {} loops \
+         (below 1.64 dB it adds its one weak static point) then corresponds to {alpha:.2} dB at \
+         ColoRadar's {} loops: the Defaults section's α = {nearest} dB row shows what such a \
+         loop-scaled default would change. The core keeps {default} dB for every preset.",
+        ti::LOOPS,
+        c::LOOPS,
+    )
+}
+
+/// `α_dB` at `(loops, elements)` of `to` holding the white-noise false-alarm rate of
+/// `alpha_db` at `from`: `α − 1` scaled by `√((K_from − AZ_from + 1) / (K_to − AZ_to + 1))`.
+fn scaled_threshold_db(alpha_db: f32, from: (usize, usize), to: (usize, usize)) -> f64 {
+    let dof = |(k, az): (usize, usize)| (k + 1).saturating_sub(az).max(1) as f64;
+    let excess = 10f64.powf(f64::from(alpha_db) / 10.0) - 1.0;
+    10.0 * (1.0 + excess * (dof(from) / dof(to)).sqrt()).log10()
 }
 
 fn moving_section(m: &mut String, e: &Evaluation) {
@@ -1076,6 +1116,25 @@ fn defaults_section(m: &mut String, e: &Evaluation) {
     }
     let _ = writeln!(
         m,
-        "\nThese are recommendations from simulated data. The core's CFAR α was lowered from 12 dB to 8 dB on an earlier run of this sweep, from 8 dB to 3 dB when the Doppler test (on the TDM-compensated azimuth beam) and the Doppler agreement were turned on by default, and from 3 dB to 2 dB with the window gate of 12 dB (`CfarParams::RANGE_AZIMUTH`). The real TI corner-reflector capture (static anechoic scene; `dbe process --cfar-threshold-db A` on `../shared/fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin`) decides what the simulator cannot: the chain keeps exactly the reflector, its double and its triple bounce, all static, from 2 to 3 dB, and one more static point (2.2 m) at 1 and 1.5 dB; without the window gate (`--cfar-window-gate-db 0`) it adds from 2.5 dB down a point with a one-bin Doppler error on the double bounce's range skirt (14 dB below it, three range bins away); without the Doppler agreement it keeps 15 points at 2 dB, 12 of them moving, and without both Doppler rules 27, 22 moving: real noise is not the simulator's white noise.\n"
+        "\nThese are recommendations from simulated data. The core's CFAR α was lowered from 12 dB to 8 dB on an earlier run of this sweep, from 8 dB to 3 dB when the Doppler test (on the TDM-compensated azimuth beam) and the Doppler agreement were turned on by default, and from 3 dB to 2 dB with the window gate of 12 dB (`CfarParams::RANGE_AZIMUTH`). The real TI corner-reflector capture (static anechoic scene; `dbe process --cfar-threshold-db A` on `../shared/fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin`) decides what the simulator cannot: the chain keeps exactly the reflector, its double and its triple bounce, all static, from 1.64 to 3 dB, and one more static point (2.2 m, 30° right, 64 dB below the reflector; SNR 1.63 dB over the CFAR level) from 1.62 dB down (measured in steps of 0.02 dB); without the window gate (`--cfar-window-gate-db 0`) it adds from 2.5 dB down a point with a one-bin Doppler error on the double bounce's range skirt (14 dB below it, three range bins away); without the Doppler agreement it keeps 15 points at 2 dB, 12 of them moving, and without both Doppler rules 27, 22 moving: real noise is not the simulator's white noise.\n"
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::scaled_threshold_db;
+
+    #[test]
+    fn the_loop_scaled_threshold_holds_the_white_noise_spread() {
+        // Same sizes: the same threshold.
+        assert!((scaled_threshold_db(2.0, (64, 8), (64, 8)) - 2.0).abs() < 1e-9);
+        // By hand: 10^0.2 − 1 = 0.584893, × √(57 / 121) = 0.686349 → 0.401441; 10·log10(1.401441).
+        let a = scaled_threshold_db(2.0, (64, 8), (128, 8));
+        assert!((a - 1.46574).abs() < 1e-4, "{a}");
+        // Fewer loops: a higher threshold; the scaling is its own inverse.
+        let back = scaled_threshold_db(a as f32, (128, 8), (64, 8));
+        assert!((back - 2.0).abs() < 1e-5, "{back}");
+        // Degenerate sizes stay finite.
+        assert!(scaled_threshold_db(2.0, (4, 8), (0, 0)).is_finite());
+    }
 }
