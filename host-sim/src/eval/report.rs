@@ -709,8 +709,9 @@ fn loop_scaling() -> String {
          1/√(K − AZ + 1) (Capon and Goodman: from the sample covariance of white noise it is \
          a scaled χ² with 2(K − AZ + 1) degrees of freedom; the map's forward–backward \
          averaging narrows it at both loop counts by about the same factor), so a threshold \
-         that keeps one false-alarm probability in noise scales as α − 1 ∝ 1/√(K − AZ + 1). The {default} dB that the TI capture supports at its {} loops \
-         (below 1.64 dB it adds its one weak static point) then corresponds to {alpha:.2} dB at \
+         that keeps one false-alarm probability in noise scales as α − 1 ∝ 1/√(K − AZ + 1). \
+         The {default} dB that the TI capture supports at its {} loops (from 1.62 dB down it \
+         adds a weak static point whose SNR is 1.63 dB) then corresponds to {alpha:.2} dB at \
          ColoRadar's {} loops: the Defaults section's α = {nearest} dB row shows what such a \
          loop-scaled default would change. The core keeps {default} dB for every preset.",
         ti::LOOPS,
