@@ -46,6 +46,28 @@ fn shared_fixture_dir() -> Option<PathBuf> {
     None
 }
 
+/// `dbe process` of the real capture `bin` into `out` as CSV, with the options `extra`: its
+/// one frame's points.
+fn process_capture(
+    bin: &Path,
+    out: &Path,
+    extra: &[&str],
+) -> Result<Vec<host_sim::cloud::PointRecord>, Box<dyn std::error::Error>> {
+    let mut args = vec!["process", s(bin), "--out", s(out), "--format", "csv"];
+    args.extend_from_slice(extra);
+    ok(&args);
+    Ok(host_sim::io::pointcloud::read_csv(
+        &out.join("csv/frame_0.csv"),
+    )?)
+}
+
+/// The range bins of `pts`, sorted.
+fn range_bins(pts: &[host_sim::cloud::PointRecord]) -> Vec<u32> {
+    let mut bins: Vec<u32> = pts.iter().map(|p| p.range_bin).collect();
+    bins.sort_unstable();
+    bins
+}
+
 /// Simulate `frames` frames of the shipped scene `scene` into `dir/seq`; returns the sequence.
 fn simulated(dir: &Path, scene: &str, frames: &str) -> PathBuf {
     let seq = dir.join("seq");
@@ -234,9 +256,7 @@ fn processes_the_real_capture() -> TestResult {
     };
     let bin = shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin");
     let tmp = tempfile::tempdir()?;
-    let out = tmp.path().join("ti");
-    ok(&["process", s(&bin), "--out", s(&out), "--format", "csv"]);
-    let pts = host_sim::io::pointcloud::read_csv(&out.join("csv/frame_0.csv"))?;
+    let pts = process_capture(&bin, &tmp.path().join("ti"), &[])?;
     let strongest = pts
         .iter()
         .max_by(|a, b| a.intensity_db.total_cmp(&b.intensity_db))
@@ -247,21 +267,10 @@ fn processes_the_real_capture() -> TestResult {
     );
     let double = pts.iter().filter(|p| p.range_bin.abs_diff(76) <= 1).count();
     assert_eq!(double, 1, "the double bounce: {pts:?}");
-    let mut bins: Vec<u32> = pts.iter().map(|p| p.range_bin).collect();
-    bins.sort_unstable();
-    assert_eq!(bins, [38, 75, 111], "{pts:?}");
+    assert_eq!(range_bins(&pts), [38, 75, 111], "{pts:?}");
     assert!(pts.iter().all(|p| p.doppler_bin == 0), "{pts:?}");
     let without = tmp.path().join("without");
-    ok(&[
-        "process",
-        s(&bin),
-        "--out",
-        s(&without),
-        "--format",
-        "csv",
-        "--no-doppler-agreement",
-    ]);
-    let pts = host_sim::io::pointcloud::read_csv(&without.join("csv/frame_0.csv"))?;
+    let pts = process_capture(&bin, &without, &["--no-doppler-agreement"])?;
     let moving = pts.iter().filter(|p| p.doppler_bin != 0).count();
     assert!(moving >= 5, "{moving} moving of {}: {pts:?}", pts.len());
     Ok(())
@@ -277,31 +286,17 @@ fn the_real_capture_keeps_its_three_points_down_to_1_64_db() -> TestResult {
     };
     let bin = shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin");
     let tmp = tempfile::tempdir()?;
-    let run = |alpha: &str| -> Result<Vec<_>, Box<dyn std::error::Error>> {
-        let out = tmp.path().join(alpha);
-        ok(&[
-            "process",
-            s(&bin),
-            "--out",
-            s(&out),
-            "--format",
-            "csv",
-            "--cfar-threshold-db",
-            alpha,
-        ]);
-        Ok(host_sim::io::pointcloud::read_csv(
-            &out.join("csv/frame_0.csv"),
-        )?)
-    };
-    let bins = |pts: &[host_sim::cloud::PointRecord]| {
-        let mut b: Vec<u32> = pts.iter().map(|p| p.range_bin).collect();
-        b.sort_unstable();
-        b
+    let run = |alpha: &str| {
+        process_capture(
+            &bin,
+            &tmp.path().join(alpha),
+            &["--cfar-threshold-db", alpha],
+        )
     };
     let at = run("1.64")?;
-    assert_eq!(bins(&at), [38, 75, 111], "{at:?}");
+    assert_eq!(range_bins(&at), [38, 75, 111], "{at:?}");
     let below = run("1.62")?;
-    assert_eq!(bins(&below), [27, 38, 75, 111], "{below:?}");
+    assert_eq!(range_bins(&below), [27, 38, 75, 111], "{below:?}");
     assert!(below.iter().all(|p| p.doppler_bin == 0), "{below:?}");
     let extra = below.iter().find(|p| p.range_bin == 27).ok_or("bin 27")?;
     assert!(
