@@ -533,6 +533,58 @@ fn odometry_on_a_simulated_walk_writes_a_trajectory_evo_reads() -> TestResult {
     }
     assert!(out.join("groundtruth_tum.txt").is_file());
     evo_reads(&out, e["ate_rmse_m"].as_f64().ok_or("no ATE")?);
+    assert_eq!(summary["start"]["mode"], "standstill");
+
+    // The IMU data cut 4 s in, while the rig walks: the filter starts in motion at the first
+    // radar velocity with 0.25 s of IMU data before it, says so, and leaves the frames before
+    // it out of the trajectory.
+    let lines = |f: &str| -> Result<Vec<String>, std::io::Error> {
+        Ok(std::fs::read_to_string(seq.join(f))?
+            .lines()
+            .map(str::to_owned)
+            .collect())
+    };
+    let (times, samples) = (lines("imu/timestamps.txt")?, lines("imu/imu_data.txt")?);
+    let t0: f64 = times[0].parse()?;
+    let keep = times
+        .iter()
+        .position(|t| t.parse::<f64>().is_ok_and(|t| t >= t0 + 4.0))
+        .ok_or("short IMU data")?;
+    std::fs::write(
+        seq.join("imu/timestamps.txt"),
+        times[keep..].join("\n") + "\n",
+    )?;
+    std::fs::write(
+        seq.join("imu/imu_data.txt"),
+        samples[keep..].join("\n") + "\n",
+    )?;
+    let moving = dir.path().join("odo-moving");
+    let o = dbe(&["odometry", s(&seq), "--out", s(&moving)]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("started in motion"), "{stderr}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(moving.join("summary.json"))?)?;
+    assert_eq!(summary["start"]["mode"], "moving");
+    let start = summary["start"]["time_s"].as_f64().ok_or("no start time")?;
+    assert!(start >= t0 + 4.25, "start {start}");
+    let before = summary["updates"]["before_start"]
+        .as_u64()
+        .ok_or("no count")?;
+    let poses = std::fs::read_to_string(moving.join("trajectory_tum.txt"))?
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .count();
+    assert_eq!(poses as u64 + before, 120);
+    let first_pose: f64 = stamps
+        .lines()
+        .nth(before as usize)
+        .ok_or("no frame")?
+        .parse()?;
+    assert!(
+        first_pose + 0.1 > start,
+        "first pose {first_pose}, start {start}"
+    );
 
     // Missing IMU data or mounts: an error naming the file, nothing written.
     std::fs::remove_file(seq.join("imu/imu_data.txt"))?;

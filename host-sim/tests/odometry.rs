@@ -8,7 +8,7 @@ use host_sim::io::{
     load_transforms, navigation, read_groundtruth, read_imu, write_imu, write_transforms,
     StampedPose, Transforms,
 };
-use host_sim::odometry::ekf::{Ekf, EkfParams, RadarVelocity, UpdateOutcome};
+use host_sim::odometry::ekf::{Ekf, EkfParams, RadarVelocity, Start, UpdateOutcome};
 use host_sim::odometry::{self, metrics, FrameVelocity};
 use host_sim::sim::imu::{simulate_imu, ImuSample, ImuSpec};
 use host_sim::sim::trajectory::{Interpolation, Mount, Trajectory, Waypoint};
@@ -448,6 +448,185 @@ fn initialisation_refuses_a_moving_start() {
         &Mount::default(),
     );
     assert!(e.is_err_and(|e| e.to_string().contains("standstill")));
+}
+
+#[test]
+fn a_moving_start_takes_the_tilt_from_gravity_and_the_velocity_from_the_radar() -> TestResult {
+    // 12.325 s into the hallways walk, an ideal IMU, the radar's exact velocity. The start
+    // attitude's tilt errs by no more than the rig's mean acceleration over the window tilts
+    // the mean specific force (asin(|ā|/g)) plus how far the rig turns within half the window;
+    // the start velocity is the radar's carried through the mounts and the lever arm: its
+    // speed exact, its vertical component off by at most the speed times the tilt error (yaw
+    // is the world frame's definition, so the horizontal direction is not compared).
+    let scene = hallways();
+    let params = EkfParams::default();
+    let imu = simulate_imu(
+        &ImuSpec::ideal(200.0),
+        &scene.sensor,
+        &scene.rig.imu,
+        20.0,
+        1,
+    );
+    let t = 12.325;
+    let z = RadarVelocity {
+        time_s: t,
+        velocity: scene.radar_velocity(t),
+        covariance: Matrix3::identity() * 1e-4,
+    };
+    let (ekf, next) =
+        Ekf::initialise_moving(params.clone(), &imu, &z, &scene.rig.radar, &scene.rig.imu)?;
+    assert!(imu[next - 1].time_s <= t && imu[next].time_s > t);
+    assert_eq!(ekf.state().time_s, t);
+    let at = |t: f64| scene.sensor.pose(t).mounted(&scene.rig.imu);
+    let truth = at(t);
+    let half = 0.5 * params.init_moving_window_s;
+    let mean_acc = (at(t + half).velocity - at(t - half).velocity) / (2.0 * half);
+    let turn = [t - half, t + half]
+        .map(|u| (truth.rotation.inverse() * at(u).rotation).angle())
+        .into_iter()
+        .fold(0.0, f64::max);
+    let bound = (mean_acc.norm() / 9.81).asin() + turn;
+    let up = |q: UnitQuaternion<f64>| q.inverse() * Vector3::z();
+    let tilt = up(ekf.state().attitude).angle(&(truth.rotation.inverse() * Vector3::z()));
+    eprintln!(
+        "tilt error {:.2}°, bound {:.2}°",
+        tilt.to_degrees(),
+        bound.to_degrees()
+    );
+    assert!(tilt <= bound, "tilt {tilt} rad > {bound} rad");
+    let v = ekf.state().velocity;
+    assert!((v.norm() - truth.velocity.norm()).abs() < 1e-9);
+    assert!((v.z - truth.velocity.z).abs() <= truth.velocity.norm() * tilt.sin() + 1e-9);
+    Ok(())
+}
+
+/// The hallways walk cut at `t_cut` s, in motion: the IMU samples and the radar frames (2 cm/s
+/// of velocity noise) from then on.
+fn cut_walk(
+    scene: &Scene,
+    spec: &ImuSpec,
+    t_cut: f64,
+    seed: u64,
+) -> (Vec<ImuSample>, Vec<FrameVelocity>) {
+    let imu = simulate_imu(spec, &scene.sensor, &scene.rig.imu, 43.0, seed);
+    let radar = perfect_radar(scene, 430, 0.02, seed);
+    (
+        imu.into_iter().filter(|s| s.time_s >= t_cut).collect(),
+        radar
+            .into_iter()
+            .filter(|f| f.frame_time_s >= t_cut)
+            .collect(),
+    )
+}
+
+#[test]
+fn a_sequence_cut_in_motion_starts_at_its_first_radar_velocity() -> TestResult {
+    // The walk cut 12 s in, while the rig walks: the standstill start refuses it, and the
+    // filter starts at the first radar velocity with half the moving window of IMU data before
+    // it (frame 3, 12.325 s); the frames before are not in the trajectory. Heading is not
+    // observable from a moving start (no standstill mean of the gyro), so the test holds the
+    // vertical drift, which no heading error reaches: the velocity noise integrated over the
+    // frames, 4·σ_v·√(T·Δt). A wrong first velocity (+1 m/s along x: a pedestrian pulling the
+    // fit) must not lock the filter out of the right ones after it.
+    let scene = hallways();
+    let params = EkfParams::default();
+    for seed in 1..=3 {
+        let (imu, radar) = cut_walk(&scene, &ImuSpec::default(), 12.0, seed);
+        let standstill = Ekf::initialise(params.clone(), &imu, &scene.rig.radar, &scene.rig.imu);
+        assert!(standstill.is_err_and(|e| e.to_string().contains("moves")));
+        for wrong_first in [false, true] {
+            let mut frames = radar.clone();
+            if wrong_first {
+                frames[3].ego.velocity.x += 1.0;
+            }
+            let run = odometry::run(&params, &imu, &frames, &scene.rig)?;
+            let first = frames[3].measure_time_s;
+            assert_eq!(run.start, Start::Moving { time_s: first });
+            assert_eq!(run.updates.before_start, 4);
+            assert_eq!(run.trajectory.len(), frames.len() - 4);
+            assert!(run.updates.gated <= 2, "seed {seed}: {:?}", run.updates);
+            let gt = truth_at(&scene.sensor, run.trajectory.iter().map(|p| p.time_s));
+            let e = metrics::evaluate(&run.trajectory, &gt).ok_or("no match")?;
+            let bound = 4.0 * 0.02 * ((43.0 - first) * 0.1).sqrt();
+            eprintln!(
+                "seed {seed}, wrong first {wrong_first}: drift {:.3} m ({:.2} %), vertical {:.3} m (bound {bound:.3} m)",
+                e.drift.xyz_m, e.drift.xyz_pct, e.drift.z_m
+            );
+            assert!(e.drift.z_m < bound, "seed {seed}: {:?}", e.drift);
+        }
+    }
+    // Nothing to start from: no frame has a velocity.
+    let (imu, mut frames) = cut_walk(&scene, &ImuSpec::default(), 12.0, 1);
+    for f in &mut frames {
+        f.ego.status = dbe_radar::EgoStatus::TooFewPoints;
+    }
+    let e = odometry::run(&params, &imu, &frames, &scene.rig);
+    assert!(e.is_err_and(|e| e.to_string().contains("no frame")));
+    Ok(())
+}
+
+#[test]
+fn a_steady_walk_that_the_imu_takes_for_rest_starts_in_motion() -> TestResult {
+    // 1 m/s straight on from t = 0: the IMU alone reads rest (gravity, no rotation) and the
+    // standstill start accepts it; the radar says 1 m/s, so the filter starts in motion
+    // instead of at v = 0, whose first update, 1 m/s off, would be gated and every one after
+    // it too. Its trajectory then spans the walk: the distance from the first pose to the last
+    // is the speed times the time within the velocity noise integrated over the frames,
+    // 4·σ_v·√(T·Δt) (a heading error bends a straight walk, it does not shorten it).
+    let traj = Trajectory {
+        velocity: Some([1.0, 0.0, 0.0]),
+        ..Trajectory::default()
+    };
+    let imu = simulate_imu(&ImuSpec::default(), &traj, &Mount::default(), 10.0, 1);
+    let rig = Transforms::default();
+    let params = EkfParams::default();
+    assert!(Ekf::initialise(params.clone(), &imu, &rig.radar, &rig.imu).is_ok());
+    let sigma = 0.02;
+    let mut rng = StdRng::seed_from_u64(1);
+    let noise = Normal::new(0.0, sigma)?;
+    let frames: Vec<FrameVelocity> = (0..100)
+        .map(|i| {
+            let t = f64::from(i) / 10.0;
+            let mut ego = dbe_radar::EgoVelocity {
+                status: dbe_radar::EgoStatus::Ok,
+                covariance: [
+                    [(sigma * sigma) as f32, 0.0, 0.0],
+                    [0.0, (sigma * sigma) as f32, 0.0],
+                    [0.0, 0.0, (sigma * sigma) as f32],
+                ],
+                ..Default::default()
+            };
+            let mut draw = || noise.sample(&mut rng) as f32;
+            ego.velocity = dbe_radar::Vec3::new(1.0 + draw(), draw(), draw());
+            FrameVelocity {
+                frame_time_s: t,
+                measure_time_s: t + 0.025,
+                points: 20,
+                ego,
+                radials: Vec::new(),
+            }
+        })
+        .collect();
+    let run = odometry::run(&params, &imu, &frames, &rig)?;
+    assert_eq!(
+        run.start,
+        Start::Moving {
+            time_s: frames[3].measure_time_s
+        }
+    );
+    assert_eq!(run.updates.gated, 0, "{:?}", run.updates);
+    let (a, b) = match (run.trajectory.first(), run.trajectory.last()) {
+        (Some(a), Some(b)) => (a, b),
+        _ => return Err("no trajectory".into()),
+    };
+    let span = b.time_s - a.time_s;
+    let d = (b.position - a.position).norm();
+    let bound = 4.0 * sigma * (span * 0.1).sqrt();
+    assert!(
+        (d - span).abs() < bound,
+        "{d} m in {span} s, bound {bound} m"
+    );
+    Ok(())
 }
 
 fn pose(t: f64, p: [f64; 3], yaw_deg: f64) -> StampedPose {

@@ -10,7 +10,11 @@ use host_sim::eval::chart::{render, Chart, Series};
 use host_sim::io::{
     load_transforms, navigation, read_groundtruth, read_imu, StagedDir, StampedPose,
 };
-use host_sim::odometry::{self, ekf::EkfParams, metrics};
+use host_sim::odometry::{
+    self,
+    ekf::{EkfParams, Start},
+    metrics,
+};
 use nalgebra::Vector3;
 use serde_json::json;
 
@@ -155,6 +159,15 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         ..EkfParams::default()
     };
     let run = odometry::run(&ekf, &imu, &frames, &transforms).context("radar-inertial odometry")?;
+    if let Start::Moving { time_s } = run.start {
+        eprintln!(
+            "note: the rig is not at rest during the first {} s (IMU or radar), so the filter started in \
+             motion at the first radar velocity ({time_s:.3} s; {} frames before it are not in \
+             the trajectory): roll and pitch from the mean specific force, no gyro-bias mean, \
+             so expect more heading drift than from a start at rest",
+            ekf.init_standstill_s, run.updates.before_start
+        );
+    }
     let dir = staged.path();
     let write = |name: &str, text: &str| {
         std::fs::write(dir.join(name), text).with_context(|| format!("writing {name}"))
@@ -174,6 +187,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             "ill_conditioned": statuses(EgoStatus::IllConditioned),
         },
         "updates": run.updates,
+        "start": run.start,
         "imu_samples": imu.len(),
         "trajectory_poses": run.trajectory.len(),
     });

@@ -12,7 +12,18 @@
 //!                 H = −uᵀ·H_radar, σ² = σ_f² + (σ⊥/r)²·|v_radar × u|², its own χ² gate
 //! initialisation  the first `init_standstill_s` of IMU data at rest: roll and pitch from the
 //!                 mean specific force, gyro bias from the mean rate, yaw 0, p = v = 0
+//! moving start    (the IMU, or a radar velocity over `rest_speed_mps`, shows the rig moving
+//!                 in that window) at the first radar velocity: roll and pitch from the mean
+//!                 specific force over `init_moving_window_s` around it (tilt σ
+//!                 `init_moving_tilt_sigma`), v = R·(R_ir·v_radar − ω × l_ir) with its
+//!                 covariance raised to `init_moving_velocity_sigma`, gyro bias 0 (σ
+//!                 `init_moving_gyro_bias_sigma`), yaw 0, p = 0
 //! ```
+//!
+//! A moving start has no standstill mean of the gyro: the yaw rate's turn-on bias, which no
+//! velocity update observes, turns the whole path, so expect more heading drift than from a
+//! start at rest. The start velocity's raised covariance keeps one wrong first estimate (a
+//! pedestrian pulling the fit) from gating out every right one after it.
 //!
 //! `R_ir`, `l_ir` place the radar in the IMU frame (from the base → sensor transforms). The
 //! world frame is gravity-aligned (z up) with the IMU's initial yaw as its x axis. The radar
@@ -64,6 +75,20 @@ pub struct EkfParams {
     pub init_gyro_bias_sigma: f64,
     /// Initial standard deviation of roll and pitch, rad.
     pub init_tilt_sigma: f64,
+    /// Largest radar speed, m/s, that the standstill start takes for rest (an IMU cannot tell
+    /// rest from a steady walk; a faster radar velocity in the window starts the filter in
+    /// motion instead).
+    pub rest_speed_mps: f64,
+    /// Moving start: the IMU span around the first radar velocity whose mean specific force
+    /// gives roll and pitch, s.
+    pub init_moving_window_s: f64,
+    /// Moving start: standard deviation of roll and pitch (the rig's own acceleration tilts
+    /// the mean specific force), rad.
+    pub init_moving_tilt_sigma: f64,
+    /// Moving start: the least standard deviation per axis of the start velocity, m/s.
+    pub init_moving_velocity_sigma: f64,
+    /// Moving start: standard deviation of the gyroscope bias (no standstill mean), rad/s.
+    pub init_moving_gyro_bias_sigma: f64,
     /// Innovation gate: updates whose squared Mahalanobis distance exceeds it are rejected.
     pub chi2_gate: f64,
     /// Standard deviation added to each axis of the radar velocity's covariance, m/s.
@@ -90,6 +115,11 @@ impl Default for EkfParams {
             init_accel_bias_sigma: 0.05,
             init_gyro_bias_sigma: 2.0e-3,
             init_tilt_sigma: 1.0_f64.to_radians(),
+            rest_speed_mps: 0.1,
+            init_moving_window_s: 0.5,
+            init_moving_tilt_sigma: 5.0_f64.to_radians(),
+            init_moving_velocity_sigma: 0.5,
+            init_moving_gyro_bias_sigma: 0.003,
             chi2_gate: CHI2_3DOF_999,
             velocity_sigma_floor: 0.0,
             point_updates: true,
@@ -122,6 +152,12 @@ pub enum EkfError {
         force: f64,
         /// Largest deviation of a gyro sample from the mean, rad/s.
         gyro_spread: f64,
+    },
+    /// The rig moves at the start and no radar velocity lies within the IMU data to start from.
+    #[error("the rig is not at rest during the first {window_s} s (IMU or radar) and no frame inside the IMU data has an ego-velocity to start from in motion")]
+    NoStartVelocity {
+        /// `init_standstill_s`.
+        window_s: f64,
     },
     /// IMU timestamps go backwards or repeat.
     #[error("IMU sample {index} at {time_s} s does not follow the previous one")]
@@ -181,6 +217,70 @@ pub enum UpdateOutcome {
     Gated,
 }
 
+/// How the filter started.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case", tag = "mode")]
+pub enum Start {
+    /// At rest: roll, pitch and gyro bias from the standstill at the start of the IMU data
+    /// ([`Ekf::initialise`]).
+    Standstill {
+        /// End of the standstill window, s.
+        time_s: f64,
+    },
+    /// In motion, at the first radar velocity ([`Ekf::initialise_moving`]).
+    Moving {
+        /// That velocity's time, s.
+        time_s: f64,
+    },
+}
+
+impl Start {
+    /// The time the filter starts from, s.
+    pub fn time_s(&self) -> f64 {
+        match *self {
+            Start::Standstill { time_s } | Start::Moving { time_s } => time_s,
+        }
+    }
+}
+
+/// IMU timestamps must increase.
+fn check_times(imu: &[ImuSample]) -> Result<(), EkfError> {
+    for (i, w) in imu.windows(2).enumerate() {
+        if !(w[1].time_s > w[0].time_s) {
+            return Err(EkfError::Time {
+                index: i + 1,
+                time_s: w[1].time_s,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Mean specific force and mean angular rate of `window` (not empty).
+fn means(window: &[ImuSample]) -> (Vector3<f64>, Vector3<f64>) {
+    let n = window.len() as f64;
+    (
+        window.iter().map(|s| s.accel).sum::<Vector3<f64>>() / n,
+        window.iter().map(|s| s.gyro).sum::<Vector3<f64>>() / n,
+    )
+}
+
+/// The attitude (yaw 0) that maps the measured "up", the mean specific force, onto world z.
+fn level(f_mean: &Vector3<f64>) -> UnitQuaternion<f64> {
+    UnitQuaternion::rotation_between(f_mean, &Vector3::z()).unwrap_or_else(|| {
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+    })
+}
+
+/// The radar in the IMU frame: rotation radar → IMU and the radar's position.
+fn radar_in_imu(radar: &Mount, imu_mount: &Mount) -> (Matrix3<f64>, Vector3<f64>) {
+    let r_bi = imu_mount.rotation().into_inner();
+    (
+        r_bi.transpose() * radar.rotation().into_inner(),
+        r_bi.transpose() * (radar.translation() - imu_mount.translation()),
+    )
+}
+
 fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }
@@ -209,14 +309,7 @@ impl Ekf {
         radar: &Mount,
         imu_mount: &Mount,
     ) -> Result<(Self, usize), EkfError> {
-        for (i, w) in imu.windows(2).enumerate() {
-            if !(w[1].time_s > w[0].time_s) {
-                return Err(EkfError::Time {
-                    index: i + 1,
-                    time_s: w[1].time_s,
-                });
-            }
-        }
+        check_times(imu)?;
         let span_s = match (imu.first(), imu.last()) {
             (Some(a), Some(b)) => b.time_s - a.time_s,
             _ => 0.0,
@@ -233,9 +326,7 @@ impl Ekf {
             .position(|s| s.time_s - t0 > params.init_standstill_s)
             .unwrap_or(imu.len());
         let window = &imu[..end];
-        let n = window.len() as f64;
-        let f_mean: Vector3<f64> = window.iter().map(|s| s.accel).sum::<Vector3<f64>>() / n;
-        let w_mean: Vector3<f64> = window.iter().map(|s| s.gyro).sum::<Vector3<f64>>() / n;
+        let (f_mean, w_mean) = means(window);
         let gyro_spread = window
             .iter()
             .map(|s| (s.gyro - w_mean).amax())
@@ -252,50 +343,126 @@ impl Ekf {
                 gyro_spread,
             });
         }
-        // Attitude that maps the measured "up" (the specific force at rest) onto world z; the
-        // bias along it is the excess of |f| over g.
-        let attitude =
-            UnitQuaternion::rotation_between(&f_mean, &Vector3::z()).unwrap_or_else(|| {
-                UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
-            });
+        // The bias along "up" is the excess of |f| over g.
         let accel_bias = f_mean * ((force - GRAVITY_MPS2) / force);
         let mut cov = Mat15::zeros();
-        let tilt = params.init_tilt_sigma.powi(2);
-        cov[(6, 6)] = tilt;
-        cov[(7, 7)] = tilt;
-        cov[(8, 8)] = 1e-12; // yaw is the world frame's definition
-        for i in 9..12 {
-            cov[(i, i)] = params.init_accel_bias_sigma.powi(2);
+        for i in 0..6 {
+            cov[(i, i)] = 1e-8;
         }
         for i in 12..15 {
             cov[(i, i)] = params.init_gyro_bias_sigma.powi(2);
         }
-        for i in 0..6 {
-            cov[(i, i)] = 1e-8;
-        }
-        let r_bi = imu_mount.rotation().into_inner();
-        let r_ir = r_bi.transpose() * radar.rotation().into_inner();
-        let l_ir = r_bi.transpose() * (radar.translation() - imu_mount.translation());
+        let tilt = params.init_tilt_sigma;
         let last = window[window.len() - 1];
+        let state = State {
+            time_s: last.time_s,
+            position: Vector3::zeros(),
+            velocity: Vector3::zeros(),
+            attitude: level(&f_mean),
+            accel_bias,
+            gyro_bias: w_mean,
+        };
         Ok((
-            Self {
-                params,
-                state: State {
-                    time_s: last.time_s,
-                    position: Vector3::zeros(),
-                    velocity: Vector3::zeros(),
-                    attitude,
-                    accel_bias,
-                    gyro_bias: w_mean,
-                },
-                cov,
-                last,
-                r_ir,
-                l_ir,
-                gravity: Vector3::new(0.0, 0.0, -GRAVITY_MPS2),
-            },
+            Self::start(params, state, cov, tilt, last, radar, imu_mount),
             end,
         ))
+    }
+
+    /// Initialise in motion at the radar velocity `z` (module docs, *moving start*): for a
+    /// sequence whose IMU data do not start at rest. Returns the filter at `z.time_s` and the
+    /// index of the first IMU sample after it.
+    pub fn initialise_moving(
+        params: EkfParams,
+        imu: &[ImuSample],
+        z: &RadarVelocity,
+        radar: &Mount,
+        imu_mount: &Mount,
+    ) -> Result<(Self, usize), EkfError> {
+        check_times(imu)?;
+        let half = 0.5 * params.init_moving_window_s;
+        let window: Vec<ImuSample> = imu
+            .iter()
+            .filter(|s| (s.time_s - z.time_s).abs() <= half)
+            .copied()
+            .collect();
+        let next = imu.partition_point(|s| s.time_s <= z.time_s);
+        if window.len() < 2 || next == 0 || next >= imu.len() {
+            return Err(EkfError::NoStartVelocity {
+                window_s: params.init_standstill_s,
+            });
+        }
+        let (f_mean, _) = means(&window);
+        // The sample at z's time, interpolated: the propagation's left end.
+        let (a, b) = (imu[next - 1], imu[next]);
+        let f = (z.time_s - a.time_s) / (b.time_s - a.time_s);
+        let last = ImuSample {
+            time_s: z.time_s,
+            accel: a.accel + f * (b.accel - a.accel),
+            gyro: a.gyro + f * (b.gyro - a.gyro),
+        };
+        let attitude = level(&f_mean);
+        let r = attitude.to_rotation_matrix().into_inner();
+        let (r_ir, l_ir) = radar_in_imu(radar, imu_mount);
+        // z = R_irᵀ·(Rᵀ·v + ω × l_ir) with the gyro bias taken as 0.
+        let velocity = r * (r_ir * z.velocity - last.gyro.cross(&l_ir));
+        let tilt = params.init_moving_tilt_sigma;
+        let floor = params
+            .velocity_sigma_floor
+            .hypot(params.init_moving_velocity_sigma);
+        let mut c_v = r * r_ir * z.covariance * (r * r_ir).transpose();
+        for i in 0..3 {
+            // A start velocity no less uncertain than the floor, and tilted with the attitude.
+            c_v[(i, i)] = c_v[(i, i)].max(floor * floor) + (velocity.norm() * tilt).powi(2);
+        }
+        let mut cov = Mat15::zeros();
+        for i in 0..3 {
+            cov[(i, i)] = 1e-8;
+        }
+        cov.fixed_view_mut::<3, 3>(3, 3).copy_from(&c_v);
+        for i in 12..15 {
+            cov[(i, i)] = params.init_moving_gyro_bias_sigma.powi(2);
+        }
+        let state = State {
+            time_s: z.time_s,
+            position: Vector3::zeros(),
+            velocity,
+            attitude,
+            accel_bias: Vector3::zeros(),
+            gyro_bias: Vector3::zeros(),
+        };
+        Ok((
+            Self::start(params, state, cov, tilt, last, radar, imu_mount),
+            next,
+        ))
+    }
+
+    /// The filter at `state`; `cov` holds the position, velocity and gyro-bias blocks, and the
+    /// tilt and accelerometer-bias variances are set here from `tilt` and the parameters.
+    fn start(
+        params: EkfParams,
+        state: State,
+        mut cov: Mat15,
+        tilt: f64,
+        last: ImuSample,
+        radar: &Mount,
+        imu_mount: &Mount,
+    ) -> Self {
+        cov[(6, 6)] = tilt * tilt;
+        cov[(7, 7)] = tilt * tilt;
+        cov[(8, 8)] = 1e-12; // yaw is the world frame's definition
+        for i in 9..12 {
+            cov[(i, i)] = params.init_accel_bias_sigma.powi(2);
+        }
+        let (r_ir, l_ir) = radar_in_imu(radar, imu_mount);
+        Self {
+            params,
+            state,
+            cov,
+            last,
+            r_ir,
+            l_ir,
+            gravity: Vector3::new(0.0, 0.0, -GRAVITY_MPS2),
+        }
     }
 
     /// The current estimate.

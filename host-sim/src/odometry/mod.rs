@@ -10,9 +10,10 @@
 //! ```
 //!
 //! - [`ekf`]: the filter (IMU propagation, radar ego-velocity update with the lever arm, χ²
-//!   gate, standstill initialisation).
+//!   gate, initialisation at a standstill or in motion).
 //! - [`metrics`]: association, 4-DoF alignment, ATE, relative errors, end-point drift.
-//! - [`run`]: the whole sequence; [`ego_truth`]: the radar velocity the ground truth implies.
+//! - [`start`]: which initialisation a sequence gets; [`run`]: the whole sequence;
+//!   [`ego_truth`]: the radar velocity the ground truth implies.
 //!
 //! The same [`ekf::EkfParams`] serve whichever chain made the points.
 
@@ -28,7 +29,7 @@ use crate::cloud::PointRecord;
 use crate::io::{StampedPose, Transforms};
 use crate::sim::imu::ImuSample;
 use crate::sim::trajectory::Mount;
-use ekf::{Ekf, EkfError, EkfParams, RadarVelocity, RadialVelocity, UpdateOutcome};
+use ekf::{Ekf, EkfError, EkfParams, RadarVelocity, RadialVelocity, Start, UpdateOutcome};
 
 /// The ego-velocity of one radar frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -274,6 +275,8 @@ pub struct UpdateCounts {
     pub points_gated: usize,
     /// Frames before the end of the initial standstill (no update).
     pub during_init: usize,
+    /// Frames before a moving start (not in the trajectory).
+    pub before_start: usize,
     /// Frames after the last IMU sample (not in the trajectory).
     pub after_imu: usize,
 }
@@ -285,6 +288,8 @@ pub struct OdometryRun {
     pub trajectory: Vec<StampedPose>,
     /// What happened to the frames' measurements.
     pub updates: UpdateCounts,
+    /// How the filter started.
+    pub start: Start,
 }
 
 /// The base frame's pose from the IMU's: `R_wb = R_wi·R_biᵀ`, `p_wb = p_wi − R_wb·t_bi`.
@@ -303,17 +308,59 @@ fn base_pose(
     }
 }
 
-/// Run the filter over a sequence: `imu` in time order (starting with the standstill),
-/// `frames` in time order; the trajectory has one base pose per frame up to the last IMU
-/// sample.
+/// The filter at its start, the index of the IMU sample after it, and how it started: from
+/// the standstill at the start of the IMU data ([`Ekf::initialise`]) when the IMU shows the rig
+/// at rest there and no radar velocity measured in that window exceeds `rest_speed_mps` (an
+/// IMU cannot tell rest from a steady walk), else in motion ([`Ekf::initialise_moving`]) at the
+/// first radar velocity with half the moving window of IMU data on both sides.
+pub fn start(
+    params: &EkfParams,
+    imu: &[ImuSample],
+    frames: &[FrameVelocity],
+    transforms: &Transforms,
+) -> Result<(Ekf, usize, Start), EkfError> {
+    let (radar, imu_mount) = (&transforms.radar, &transforms.imu);
+    let window_s = params.init_standstill_s;
+    match Ekf::initialise(params.clone(), imu, radar, imu_mount) {
+        Ok((ekf, next)) => {
+            let time_s = ekf.state().time_s;
+            let radar_moves = frames
+                .iter()
+                .filter(|f| f.measure_time_s <= time_s && f.ego.status == EgoStatus::Ok)
+                .filter_map(FrameVelocity::measurement)
+                .any(|z| z.velocity.norm() > params.rest_speed_mps);
+            if !radar_moves {
+                return Ok((ekf, next, Start::Standstill { time_s }));
+            }
+        }
+        Err(EkfError::NotAtRest { .. }) => {}
+        Err(e) => return Err(e),
+    }
+    let half = 0.5 * params.init_moving_window_s;
+    let (first, last) = match (imu.first(), imu.last()) {
+        (Some(a), Some(b)) => (a.time_s + half, b.time_s - half),
+        _ => return Err(EkfError::NoStartVelocity { window_s }),
+    };
+    let z = frames
+        .iter()
+        .filter_map(FrameVelocity::measurement)
+        .find(|z| z.time_s >= first && z.time_s <= last)
+        .ok_or(EkfError::NoStartVelocity { window_s })?;
+    let (ekf, next) = Ekf::initialise_moving(params.clone(), imu, &z, radar, imu_mount)?;
+    Ok((ekf, next, Start::Moving { time_s: z.time_s }))
+}
+
+/// Run the filter over a sequence: `imu` in time order, `frames` in time order. It starts
+/// ([`start`]) from the standstill at the start of the IMU data, or in motion at the first
+/// radar velocity. The trajectory has one base pose per frame from the start (a standstill's
+/// frames included) up to the last IMU sample.
 pub fn run(
     params: &EkfParams,
     imu: &[ImuSample],
     frames: &[FrameVelocity],
     transforms: &Transforms,
 ) -> Result<OdometryRun, EkfError> {
-    let (mut ekf, mut next) =
-        Ekf::initialise(params.clone(), imu, &transforms.radar, &transforms.imu)?;
+    let (mut ekf, mut next, start) = start(params, imu, frames, transforms)?;
     let init_end = ekf.state().time_s;
     let mut updates = UpdateCounts::default();
     let mut trajectory = Vec::with_capacity(frames.len());
@@ -328,6 +375,10 @@ pub fn run(
         }
     };
     for f in frames {
+        if matches!(start, Start::Moving { .. }) && f.frame_time_s < init_end {
+            updates.before_start += 1;
+            continue;
+        }
         if f.frame_time_s > last_imu {
             updates.after_imu += 1;
             continue;
@@ -373,6 +424,7 @@ pub fn run(
     Ok(OdometryRun {
         trajectory,
         updates,
+        start,
     })
 }
 
