@@ -168,6 +168,14 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             ekf.init_standstill_s, run.updates.before_start
         );
     }
+    if run.updates.widened > 0 {
+        eprintln!(
+            "note: {} times every radar velocity for {} s or more was gated, and one was taken \
+             only after the filter widened its velocity's covariance (a velocity gone wrong: IMU \
+             errors beyond its parameters? or a moving object filling the view)",
+            run.updates.widened, ekf.widen_after_s
+        );
+    }
     let dir = staged.path();
     let write = |name: &str, text: &str| {
         std::fs::write(dir.join(name), text).with_context(|| format!("writing {name}"))

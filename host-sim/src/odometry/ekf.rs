@@ -18,12 +18,19 @@
 //!                 `init_moving_tilt_sigma`), v = R·(R_ir·v_radar − ω × l_ir) with its
 //!                 covariance raised to `init_moving_velocity_sigma`, gyro bias 0 (σ
 //!                 `init_moving_gyro_bias_sigma`), yaw 0, p = 0
+//! widening        after `widen_after_s` with every radar update gated (and no point update
+//!                 applied), the velocity's variances grow by `init_moving_velocity_sigma²` and
+//!                 the gated update is tried again (each further gated frame, again)
 //! ```
 //!
 //! A moving start has no standstill mean of the gyro: the yaw rate's turn-on bias, which no
 //! velocity update observes, turns the whole path, so expect more heading drift than from a
 //! start at rest. The start velocity's raised covariance keeps one wrong first estimate (a
-//! pedestrian pulling the fit) from gating out every right one after it.
+//! pedestrian pulling the fit) from gating out every right one after it. The widening is for a
+//! filter whose velocity went wrong (IMU errors beyond its parameters, a wrong start): its χ²
+//! gate would reject every right radar velocity after, and the IMU alone carries it off by
+//! metres within seconds. A moving object that fills the view for longer is let in the same
+//! way, and the static scene after it again: an error of a second or two, not a lost filter.
 //!
 //! `R_ir`, `l_ir` place the radar in the IMU frame (from the base → sensor transforms). The
 //! world frame is gravity-aligned (z up) with the IMU's initial yaw as its x axis. The radar
@@ -79,6 +86,10 @@ pub struct EkfParams {
     /// rest from a steady walk; a faster radar velocity in the window starts the filter in
     /// motion instead).
     pub rest_speed_mps: f64,
+    /// After this long with every radar update gated (none applied, nor any point update), a
+    /// gated update is tried again with the velocity's covariance widened by
+    /// `init_moving_velocity_sigma` per axis ([`Ekf::widen_velocity`]), s.
+    pub widen_after_s: f64,
     /// Moving start: the IMU span around the first radar velocity whose mean specific force
     /// gives roll and pitch, s.
     pub init_moving_window_s: f64,
@@ -116,6 +127,7 @@ impl Default for EkfParams {
             init_gyro_bias_sigma: 2.0e-3,
             init_tilt_sigma: 1.0_f64.to_radians(),
             rest_speed_mps: 0.1,
+            widen_after_s: 1.0,
             init_moving_window_s: 0.5,
             init_moving_tilt_sigma: 5.0_f64.to_radians(),
             init_moving_velocity_sigma: 0.5,
@@ -560,6 +572,17 @@ impl Ekf {
         let floor = self.params.velocity_sigma_floor.powi(2);
         let r = z.covariance + Matrix3::identity() * floor;
         self.correct(z.velocity - h, jac, r, self.params.chi2_gate)
+    }
+
+    /// Raise the velocity's variances by `sigma²` per axis, its correlations kept: the
+    /// filter's admission that its velocity may be that far off. For a filter whose radar
+    /// updates have all been gated for `widen_after_s`: its velocity went wrong (IMU errors
+    /// beyond its parameters, a wrong start), and its gate would reject every right update
+    /// after.
+    pub fn widen_velocity(&mut self, sigma: f64) {
+        for i in 3..6 {
+            self.cov[(i, i)] += sigma * sigma;
+        }
     }
 
     /// Correct with one static point's radial velocity measured now (call

@@ -265,6 +265,9 @@ pub struct UpdateCounts {
     pub applied: usize,
     /// Radar updates rejected by the χ² gate.
     pub gated: usize,
+    /// Radar updates applied only after `widen_after_s` of gated ones widened the velocity's
+    /// covariance ([`ekf::Ekf::widen_velocity`]; not counted as gated or applied).
+    pub widened: usize,
     /// Frames without a usable estimate (too few points, ill-conditioned).
     pub no_estimate: usize,
     /// Of those, frames with at least one point update applied.
@@ -362,6 +365,7 @@ pub fn run(
 ) -> Result<OdometryRun, EkfError> {
     let (mut ekf, mut next, start) = start(params, imu, frames, transforms)?;
     let init_end = ekf.state().time_s;
+    let mut last_applied = init_end;
     let mut updates = UpdateCounts::default();
     let mut trajectory = Vec::with_capacity(frames.len());
     let last_imu = imu.last().map_or(f64::NEG_INFINITY, |s| s.time_s);
@@ -408,6 +412,9 @@ pub fn run(
                 }
                 updates.points_applied += applied;
                 updates.point_frames += usize::from(applied > 0);
+                if applied > 0 {
+                    last_applied = f.measure_time_s;
+                }
             }
             continue;
         };
@@ -417,7 +424,20 @@ pub fn run(
         }
         advance(&mut ekf, &mut next, z.time_s);
         match ekf.update(&z) {
-            UpdateOutcome::Applied => updates.applied += 1,
+            UpdateOutcome::Applied => {
+                updates.applied += 1;
+                last_applied = z.time_s;
+            }
+            UpdateOutcome::Gated if z.time_s - last_applied >= params.widen_after_s => {
+                ekf.widen_velocity(params.init_moving_velocity_sigma);
+                match ekf.update(&z) {
+                    UpdateOutcome::Applied => {
+                        updates.widened += 1;
+                        last_applied = z.time_s;
+                    }
+                    UpdateOutcome::Gated => updates.gated += 1,
+                }
+            }
             UpdateOutcome::Gated => updates.gated += 1,
         }
     }
