@@ -538,6 +538,13 @@ fn the_odometry_section_runs_both_chains_on_every_sequence() {
             if r.ego.frames_compared > 0 {
                 assert!(r.ego.rmse_mps[0] < 0.1, "{} {v}: {:?}", s.name, r.ego);
             }
+            // Cut 1 s into the walk, the same frames start the filter in motion (a run that
+            // started at rest after the cut would have no figure).
+            let moving = r
+                .xyz_pct_moving_start
+                .unwrap_or_else(|| panic!("{} {v}: no moving start", s.name));
+            eprintln!("{} {v}: moving start {moving:.2} %", s.name);
+            assert!(moving < 20.0, "{} {v}: {moving} %", s.name);
         }
     }
     // The FFT chain's dense points give an estimate on every moving frame of every sequence.

@@ -15,7 +15,8 @@ use super::scenarios::{par_run, scene_file, SceneFile};
 use super::EvalError;
 use crate::cloud::PointRecord;
 use crate::io::StampedPose;
-use crate::odometry::{self, ekf::EkfParams, metrics, EgoErrors, RadialConsistency, UpdateCounts};
+use crate::odometry::ekf::{EkfParams, Start};
+use crate::odometry::{self, metrics, EgoErrors, RadialConsistency, UpdateCounts};
 use crate::sensor::SensorConfig;
 use crate::sim::{render::mix, scene_imu, Scene, Simulation};
 
@@ -46,6 +47,10 @@ pub const SEQUENCES: [SceneFile; 4] = [
 /// Stream of the per-seed scene seeds.
 const SEED_STREAM: u64 = 0x4F44_4F4D;
 
+/// Where the moving-start run cuts each sequence, s: 1 s after its 2 s standstill, while the
+/// rig walks ([`crate::odometry::start`]).
+pub const MOVING_START_CUT_S: f64 = 3.0;
+
 /// One chain on one sequence and seed.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct OdometryRow {
@@ -70,6 +75,9 @@ pub struct OdometryRow {
     /// The same filter without point updates on frames without an estimate (the ablation of
     /// [`EkfParams::point_updates`]): XYZ drift, % of the path.
     pub xyz_pct_without_point_updates: Option<f64>,
+    /// The same filter on the sequence cut at [`MOVING_START_CUT_S`] (IMU data and frames
+    /// before it dropped), so that it starts in motion: XYZ drift, % of the shorter path.
+    pub xyz_pct_moving_start: Option<f64>,
     /// Why the filter could not run.
     pub failure: Option<String>,
 }
@@ -133,6 +141,23 @@ pub fn run_odometry(
                     .ok()
                     .and_then(|r| metrics::evaluate(&r.trajectory, &truth))
                     .map(|e| e.drift.xyz_pct);
+                let moving = {
+                    let imu: Vec<_> = imu
+                        .iter()
+                        .filter(|s| s.time_s >= MOVING_START_CUT_S)
+                        .copied()
+                        .collect();
+                    let frames: Vec<_> = frames
+                        .iter()
+                        .filter(|f| f.frame_time_s >= MOVING_START_CUT_S)
+                        .cloned()
+                        .collect();
+                    odometry::run(&EkfParams::default(), &imu, &frames, &scene.rig)
+                        .ok()
+                        .filter(|r| matches!(r.start, Start::Moving { .. }))
+                        .and_then(|r| metrics::evaluate(&r.trajectory, &truth))
+                        .map(|e| e.drift.xyz_pct)
+                };
                 let total: usize = frames.iter().map(|f| f.points).sum();
                 let (updates, errors, failure) = match run {
                     Ok(r) => (r.updates, metrics::evaluate(&r.trajectory, &truth), None),
@@ -149,6 +174,7 @@ pub fn run_odometry(
                     updates,
                     errors,
                     xyz_pct_without_point_updates: without,
+                    xyz_pct_moving_start: moving,
                     failure,
                 });
             }
@@ -211,6 +237,9 @@ pub struct OdometrySummary {
     pub xyz_pct_without_point_updates: f64,
     /// Point updates applied per sequence run (mean).
     pub points_applied: f64,
+    /// XYZ drift (% of the path) started in motion (mean over the seeds that have it; NaN if
+    /// none).
+    pub xyz_pct_moving_start: f64,
 }
 
 /// Aggregate `rows` per sequence and variant; `dbe`/`fft` name the paired variants.
@@ -284,6 +313,13 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
                 )
                 .map_or(f64::NAN, |x| x.0),
                 points_applied: me(&|r| r.updates.points_applied as f64),
+                xyz_pct_moving_start: mean_std(
+                    &mine
+                        .iter()
+                        .filter_map(|r| r.xyz_pct_moving_start)
+                        .collect::<Vec<_>>(),
+                )
+                .map_or(f64::NAN, |x| x.0),
             });
         }
     }
