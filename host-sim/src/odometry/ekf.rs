@@ -246,15 +246,6 @@ pub enum Start {
     },
 }
 
-impl Start {
-    /// The time the filter starts from, s.
-    pub fn time_s(&self) -> f64 {
-        match *self {
-            Start::Standstill { time_s } | Start::Moving { time_s } => time_s,
-        }
-    }
-}
-
 /// IMU timestamps must increase.
 fn check_times(imu: &[ImuSample]) -> Result<(), EkfError> {
     for (i, w) in imu.windows(2).enumerate() {
