@@ -265,6 +265,11 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
             let me = |f: &dyn Fn(&OdometryRow) -> f64| {
                 mean_std(&mine.iter().map(|r| f(r)).collect::<Vec<_>>()).map_or(f64::NAN, |x| x.0)
             };
+            // The mean over the rows that have the figure.
+            let mean_of_some = |f: &dyn Fn(&OdometryRow) -> Option<f64>| {
+                mean_std(&mine.iter().filter_map(|r| f(r)).collect::<Vec<_>>())
+                    .map_or(f64::NAN, |x| x.0)
+            };
             let paired = (v == dbe).then(|| {
                 let d: Vec<f64> = mine
                     .iter()
@@ -305,21 +310,9 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
                 radial_scale: me(&|r| r.radial.scale),
                 radial_rms_slow_fast_mps: [0, 1].map(|i| me(&|r| r.radial.rms_slow_fast_mps[i])),
                 xyz_pct_minus_fft: paired.flatten(),
-                xyz_pct_without_point_updates: mean_std(
-                    &mine
-                        .iter()
-                        .filter_map(|r| r.xyz_pct_without_point_updates)
-                        .collect::<Vec<_>>(),
-                )
-                .map_or(f64::NAN, |x| x.0),
+                xyz_pct_without_point_updates: mean_of_some(&|r| r.xyz_pct_without_point_updates),
                 points_applied: me(&|r| r.updates.points_applied as f64),
-                xyz_pct_moving_start: mean_std(
-                    &mine
-                        .iter()
-                        .filter_map(|r| r.xyz_pct_moving_start)
-                        .collect::<Vec<_>>(),
-                )
-                .map_or(f64::NAN, |x| x.0),
+                xyz_pct_moving_start: mean_of_some(&|r| r.xyz_pct_moving_start),
             });
         }
     }
