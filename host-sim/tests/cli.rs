@@ -31,9 +31,12 @@ fn fails(args: &[&str]) -> String {
 
 /// `../shared` beside the repository when the TI capture is there; `None` (a skip) outside CI,
 /// a failure naming the path under `CI=true`.
+/// The real TI capture, under `../shared`.
+const TI_CAPTURE: &str = "fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin";
+
 fn shared_fixture_dir() -> Option<PathBuf> {
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared");
-    let bin = shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin");
+    let bin = shared.join(TI_CAPTURE);
     if bin.is_file() {
         return Some(shared);
     }
@@ -254,7 +257,7 @@ fn processes_the_real_capture() -> TestResult {
     let Some(shared) = shared_fixture_dir() else {
         return Ok(());
     };
-    let bin = shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin");
+    let bin = shared.join(TI_CAPTURE);
     let tmp = tempfile::tempdir()?;
     let pts = process_capture(&bin, &tmp.path().join("ti"), &[])?;
     let strongest = pts
@@ -284,7 +287,7 @@ fn the_real_capture_keeps_its_three_points_down_to_1_64_db() -> TestResult {
     let Some(shared) = shared_fixture_dir() else {
         return Ok(());
     };
-    let bin = shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin");
+    let bin = shared.join(TI_CAPTURE);
     let tmp = tempfile::tempdir()?;
     let run = |alpha: &str| {
         process_capture(
@@ -443,10 +446,7 @@ fn a_capture_without_configuration_is_refused_with_the_sizes_that_fit() -> TestR
     };
     let tmp = tempfile::tempdir()?;
     let capture = tmp.path().join("adc_data.bin");
-    std::fs::copy(
-        shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin"),
-        &capture,
-    )?;
+    std::fs::copy(shared.join(TI_CAPTURE), &capture)?;
     let out = tmp.path().join("out");
     // No configuration: both presets' frames divide its 786,432 bytes, and both are named.
     let err = fails(&["process", s(&capture), "--out", s(&out)]);
@@ -1115,7 +1115,7 @@ fn calibrate_prints_the_line_a_ti_cfg_takes_and_it_moves_the_reflector_to_boresi
     let Some(shared) = shared_fixture_dir() else {
         return Ok(());
     };
-    let bin = shared.join("fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin");
+    let bin = shared.join(TI_CAPTURE);
     let dir = tempfile::tempdir()?;
     // The capture's sizes with its assumed RF values (the fixture's waveform_cfg.txt).
     let cfg =
