@@ -34,6 +34,11 @@ fn fails(args: &[&str]) -> String {
 /// The real TI capture, under `../shared`.
 const TI_CAPTURE: &str = "fixtures/ti-iwr6843-corner-reflector/adc_data_Raw_0.bin";
 
+/// The real TI capture's path ([`shared_fixture_dir`]: `None` is a skip outside CI).
+fn ti_capture() -> Option<PathBuf> {
+    shared_fixture_dir().map(|shared| shared.join(TI_CAPTURE))
+}
+
 fn shared_fixture_dir() -> Option<PathBuf> {
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared");
     let bin = shared.join(TI_CAPTURE);
@@ -254,10 +259,9 @@ fn demo_runs_and_replaces_only_its_own_output() -> TestResult {
 /// uncalibrated).
 #[test]
 fn processes_the_real_capture() -> TestResult {
-    let Some(shared) = shared_fixture_dir() else {
+    let Some(bin) = ti_capture() else {
         return Ok(());
     };
-    let bin = shared.join(TI_CAPTURE);
     let tmp = tempfile::tempdir()?;
     let pts = process_capture(&bin, &tmp.path().join("ti"), &[])?;
     let strongest = pts
@@ -284,10 +288,9 @@ fn processes_the_real_capture() -> TestResult {
 /// static, at range bin 27 with an SNR of 1.63 dB over the CFAR level.
 #[test]
 fn the_real_capture_keeps_its_three_points_down_to_1_64_db() -> TestResult {
-    let Some(shared) = shared_fixture_dir() else {
+    let Some(bin) = ti_capture() else {
         return Ok(());
     };
-    let bin = shared.join(TI_CAPTURE);
     let tmp = tempfile::tempdir()?;
     let run = |alpha: &str| {
         process_capture(
@@ -1112,10 +1115,9 @@ fn simulate_with_realistic_surfaces() -> TestResult {
 #[test]
 fn calibrate_prints_the_line_a_ti_cfg_takes_and_it_moves_the_reflector_to_boresight() -> TestResult
 {
-    let Some(shared) = shared_fixture_dir() else {
+    let Some(bin) = ti_capture() else {
         return Ok(());
     };
-    let bin = shared.join(TI_CAPTURE);
     let dir = tempfile::tempdir()?;
     // The capture's sizes with its assumed RF values (the fixture's waveform_cfg.txt).
     let cfg =
