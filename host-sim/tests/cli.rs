@@ -537,6 +537,12 @@ fn odometry_on_a_simulated_walk_writes_a_trajectory_evo_reads() -> TestResult {
     assert!(out.join("groundtruth_tum.txt").is_file());
     evo_reads(&out, e["ate_rmse_m"].as_f64().ok_or("no ATE")?);
     assert_eq!(summary["start"]["mode"], "standstill");
+    // The rig stands still for 1 s after the filter's 1 s start: zero-rate updates, none
+    // rejected (the IMU is at rest there).
+    let zero_rate = &summary["updates"]["zero_rate"];
+    assert!(zero_rate.as_u64().is_some_and(|n| n > 0), "{summary}");
+    assert_eq!(summary["updates"]["zero_rate_rejected"], 0, "{summary}");
+    assert!(stdout.contains("zero-rate updates"), "{stdout}");
 
     // The IMU data cut 4 s in, while the rig walks: the filter starts in motion at the first
     // radar velocity with 0.25 s of IMU data before it, says so, and leaves the frames before

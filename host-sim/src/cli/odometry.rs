@@ -45,6 +45,11 @@ pub struct OdometryArgs {
     /// it one by one).
     #[arg(long)]
     pub no_point_updates: bool,
+    /// Give the filter no zero-rate updates (an ablation; by default, between two frames
+    /// whose points read a standstill, with the IMU at rest in between, the mean gyro rate
+    /// updates the gyro bias).
+    #[arg(long)]
+    pub no_zero_rate_updates: bool,
     #[command(flatten)]
     pub params: ParamArgs,
 }
@@ -156,6 +161,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         odometry::frame_velocities(&per_frame, host_sim::score::mid_frame_s(&opened.sensor))?;
     let ekf = EkfParams {
         point_updates: !args.no_point_updates,
+        zero_rate_updates: !args.no_zero_rate_updates,
         ..EkfParams::default()
     };
     let run = odometry::run(&ekf, &imu, &frames, &transforms).context("radar-inertial odometry")?;
@@ -228,13 +234,15 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     write("summary.json", &serde_json::to_string_pretty(&summary)?)?;
     staged.commit()?;
     outln!(
-        "{} frames, {} radar updates ({} gated), {} point updates on {} frames without one ({} gated) in {:.1} s{line} → {}",
+        "{} frames, {} radar updates ({} gated), {} point updates on {} frames without one ({} gated), {} zero-rate updates at standstills ({} rejected) in {:.1} s{line} → {}",
         frames.len(),
         run.updates.applied,
         run.updates.gated,
         run.updates.points_applied,
         run.updates.point_frames,
         run.updates.points_gated,
+        run.updates.zero_rate,
+        run.updates.zero_rate_rejected,
         started.elapsed().as_secs_f64(),
         args.out.display()
     )?;

@@ -78,6 +78,11 @@ pub struct OdometryRow {
     /// The same filter on the sequence cut at [`MOVING_START_CUT_S`] (IMU data and frames
     /// before it dropped), so that it starts in motion: XYZ drift, % of the shorter path.
     pub xyz_pct_moving_start: Option<f64>,
+    /// The same filter without zero-rate updates (the ablation of
+    /// [`EkfParams::zero_rate_updates`]), from rest and in motion: XYZ drift, % of the path.
+    pub xyz_pct_without_zero_rate: [Option<f64>; 2],
+    /// ATE without zero-rate updates, from rest, m.
+    pub ate_m_without_zero_rate: Option<f64>,
     /// Why the filter could not run.
     pub failure: Option<String>,
 }
@@ -133,31 +138,43 @@ pub fn run_odometry(
                     per_frame.iter().map(|&(t, p)| (t + mid, p)).collect();
                 let radial = RadialConsistency::measure(&at_mid, velocity);
                 let run = odometry::run(&EkfParams::default(), &imu, &frames, &scene.rig);
+                // XYZ drift of the filter with `params`, from rest or (cut at
+                // MOVING_START_CUT_S) in motion.
+                let cut_imu: Vec<_> = imu
+                    .iter()
+                    .filter(|s| s.time_s >= MOVING_START_CUT_S)
+                    .copied()
+                    .collect();
+                let cut_frames: Vec<_> = frames
+                    .iter()
+                    .filter(|f| f.frame_time_s >= MOVING_START_CUT_S)
+                    .cloned()
+                    .collect();
+                let errors = |params: &EkfParams, moving: bool| {
+                    let (imu, frames) = if moving {
+                        (&cut_imu, &cut_frames)
+                    } else {
+                        (&imu, &frames)
+                    };
+                    odometry::run(params, imu, frames, &scene.rig)
+                        .ok()
+                        .filter(|r| matches!(r.start, Start::Moving { .. }) == moving)
+                        .and_then(|r| metrics::evaluate(&r.trajectory, &truth))
+                };
+                let drift = |params: &EkfParams, moving: bool| {
+                    errors(params, moving).map(|e| e.drift.xyz_pct)
+                };
                 let no_points = EkfParams {
                     point_updates: false,
                     ..EkfParams::default()
                 };
-                let without = odometry::run(&no_points, &imu, &frames, &scene.rig)
-                    .ok()
-                    .and_then(|r| metrics::evaluate(&r.trajectory, &truth))
-                    .map(|e| e.drift.xyz_pct);
-                let moving = {
-                    let imu: Vec<_> = imu
-                        .iter()
-                        .filter(|s| s.time_s >= MOVING_START_CUT_S)
-                        .copied()
-                        .collect();
-                    let frames: Vec<_> = frames
-                        .iter()
-                        .filter(|f| f.frame_time_s >= MOVING_START_CUT_S)
-                        .cloned()
-                        .collect();
-                    odometry::run(&EkfParams::default(), &imu, &frames, &scene.rig)
-                        .ok()
-                        .filter(|r| matches!(r.start, Start::Moving { .. }))
-                        .and_then(|r| metrics::evaluate(&r.trajectory, &truth))
-                        .map(|e| e.drift.xyz_pct)
+                let no_zero_rate = EkfParams {
+                    zero_rate_updates: false,
+                    ..EkfParams::default()
                 };
+                let without = drift(&no_points, false);
+                let moving = drift(&EkfParams::default(), true);
+                let without_zero_rate = [false, true].map(|m| errors(&no_zero_rate, m));
                 let total: usize = frames.iter().map(|f| f.points).sum();
                 let (updates, errors, failure) = match run {
                     Ok(r) => (r.updates, metrics::evaluate(&r.trajectory, &truth), None),
@@ -175,6 +192,10 @@ pub fn run_odometry(
                     errors,
                     xyz_pct_without_point_updates: without,
                     xyz_pct_moving_start: moving,
+                    xyz_pct_without_zero_rate: without_zero_rate
+                        .each_ref()
+                        .map(|e| e.as_ref().map(|e| e.drift.xyz_pct)),
+                    ate_m_without_zero_rate: without_zero_rate[0].as_ref().map(|e| e.ate_rmse_m),
                     failure,
                 });
             }
@@ -240,6 +261,13 @@ pub struct OdometrySummary {
     /// XYZ drift (% of the path) started in motion (mean over the seeds that have it; NaN if
     /// none).
     pub xyz_pct_moving_start: f64,
+    /// XYZ drift (% of the path) without zero-rate updates, from rest and in motion (means
+    /// over the seeds that have it; NaN if none).
+    pub xyz_pct_without_zero_rate: [f64; 2],
+    /// ATE without zero-rate updates, from rest, m (mean over the seeds that have it).
+    pub ate_m_without_zero_rate: f64,
+    /// Zero-rate updates applied per sequence run (mean).
+    pub zero_rate_updates: f64,
 }
 
 /// Aggregate `rows` per sequence and variant; `dbe`/`fft` name the paired variants.
@@ -313,6 +341,10 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
                 xyz_pct_without_point_updates: mean_of_some(&|r| r.xyz_pct_without_point_updates),
                 points_applied: me(&|r| r.updates.points_applied as f64),
                 xyz_pct_moving_start: mean_of_some(&|r| r.xyz_pct_moving_start),
+                xyz_pct_without_zero_rate: [0, 1]
+                    .map(|i| mean_of_some(&|r| r.xyz_pct_without_zero_rate[i])),
+                ate_m_without_zero_rate: mean_of_some(&|r| r.ate_m_without_zero_rate),
+                zero_rate_updates: me(&|r| r.updates.zero_rate as f64),
             });
         }
     }

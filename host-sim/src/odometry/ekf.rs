@@ -21,11 +21,21 @@
 //! widening        after `widen_after_s` with every radar update gated (and no point update
 //!                 applied), the velocity's variances grow by `init_moving_velocity_sigma²` and
 //!                 the gated update is tried again (each further gated frame, again)
+//! zero rate       between two radar standstills with the IMU at rest in between: the mean
+//!                 rate ω̄ = b_g + n, H = [0, 0, 0, 0, I], σ² = σ_g²/T + zero_rate_sigma²,
+//!                 χ² gate (`zero_rate_updates`)
 //! ```
 //!
 //! A moving start has no standstill mean of the gyro: the yaw rate's turn-on bias, which no
 //! velocity update observes, turns the whole path, so expect more heading drift than from a
-//! start at rest. The start velocity's raised covariance keeps one wrong first estimate (a
+//! start at rest. Every later stop measures it (the zero-rate update): the radar's standstill
+//! says the rig does not move, the IMU's rest test that it does not turn (a rig turning about
+//! the radar keeps a static scene's Doppler at zero), and the filter learns its gyro bias
+//! there, and through their correlation corrects the heading and position that bias has
+//! turned since the last stop. Nothing but the χ² gate tells a slow turn at a standstill from
+//! a bias: a rig panned at under about 0.3°/s (4σ of the update once the bias is known; more
+//! while it is not) is partly taken for one. A person turning round, at tens of degrees per
+//! second, fails the IMU's rest test. The start velocity's raised covariance keeps one wrong first estimate (a
 //! pedestrian pulling the fit) from gating out every right one after it. The widening is for a
 //! filter whose velocity went wrong (IMU errors beyond its parameters, a wrong start): its χ²
 //! gate would reject every right radar velocity after, and the IMU alone carries it off by
@@ -113,6 +123,13 @@ pub struct EkfParams {
     pub point_cross_range_m: f64,
     /// Gate of a point update (squared Mahalanobis distance, 1 degree of freedom).
     pub point_chi2_gate: f64,
+    /// Update the gyro bias with the mean rate between two radar standstills when the IMU
+    /// is at rest in between ([`Ekf::update_zero_rate`]).
+    pub zero_rate_updates: bool,
+    /// Standard deviation added to each axis of a zero-rate measurement, rad/s: what the rig
+    /// may still turn, on average over a frame interval, while the radar reads a standstill
+    /// and the IMU rest.
+    pub zero_rate_sigma: f64,
 }
 
 impl Default for EkfParams {
@@ -138,6 +155,8 @@ impl Default for EkfParams {
             point_sigma_mps: f64::from(EgoParams::DEFAULT.sigma_floor_mps),
             point_cross_range_m: f64::from(EgoParams::DEFAULT.cross_range_sigma_m),
             point_chi2_gate: CHI2_1DOF_999,
+            zero_rate_updates: true,
+            zero_rate_sigma: 1.0e-3,
         }
     }
 }
@@ -268,6 +287,39 @@ fn means(window: &[ImuSample]) -> (Vector3<f64>, Vector3<f64>) {
     )
 }
 
+/// The IMU's view of a window of samples (not empty): its means and how far it is from rest.
+struct Rest {
+    /// Mean specific force, m/s².
+    f_mean: Vector3<f64>,
+    /// Mean angular rate, rad/s.
+    w_mean: Vector3<f64>,
+    /// Largest deviation of a gyro sample from the mean, rad/s.
+    gyro_spread: f64,
+}
+
+impl Rest {
+    fn of(window: &[ImuSample]) -> Self {
+        let (f_mean, w_mean) = means(window);
+        let gyro_spread = window
+            .iter()
+            .map(|s| (s.gyro - w_mean).amax())
+            .fold(0.0, f64::max);
+        Self {
+            f_mean,
+            w_mean,
+            gyro_spread,
+        }
+    }
+
+    /// At rest |f| = g; a walking or turning rig shows in the force, in the gyro spread, or
+    /// (turning steadily) in a mean rate no MEMS bias reaches ([`MAX_GYRO_BIAS`]).
+    fn at_rest(&self) -> bool {
+        (self.f_mean.norm() - GRAVITY_MPS2).abs() <= 0.5
+            && self.gyro_spread <= 0.1
+            && self.w_mean.amax() <= MAX_GYRO_BIAS
+    }
+}
+
 /// The attitude (yaw 0) that maps the measured "up", the mean specific force, onto world z.
 fn level(f_mean: &Vector3<f64>) -> UnitQuaternion<f64> {
     UnitQuaternion::rotation_between(f_mean, &Vector3::z()).unwrap_or_else(|| {
@@ -329,21 +381,14 @@ impl Ekf {
             .position(|s| s.time_s - t0 > params.init_standstill_s)
             .unwrap_or(imu.len());
         let window = &imu[..end];
-        let (f_mean, w_mean) = means(window);
-        let gyro_spread = window
-            .iter()
-            .map(|s| (s.gyro - w_mean).amax())
-            .fold(0.0, f64::max);
-        let force = f_mean.norm();
-        // At rest |f| = g; a walking or turning rig shows in the force, in the gyro spread, or
-        // (turning steadily) in a mean rate no MEMS bias reaches (3°/s).
-        if (force - GRAVITY_MPS2).abs() > 0.5 || gyro_spread > 0.1 || w_mean.amax() > MAX_GYRO_BIAS
-        {
+        let rest = Rest::of(window);
+        let (f_mean, w_mean, force) = (rest.f_mean, rest.w_mean, rest.f_mean.norm());
+        if !rest.at_rest() {
             return Err(EkfError::NotAtRest {
                 mean_rate: w_mean.amax(),
                 window_s: params.init_standstill_s,
                 force,
-                gyro_spread,
+                gyro_spread: rest.gyro_spread,
             });
         }
         // The bias along "up" is the excess of |f| over g.
@@ -574,6 +619,34 @@ impl Ekf {
         for i in 3..6 {
             self.cov[(i, i)] += sigma * sigma;
         }
+    }
+
+    /// Correct the gyro bias with the mean rate of `window`, the IMU samples between two
+    /// radar standstills (module docs, *zero rate*): `ω̄ = b_g + n`, noise `σ_g²/T` (the white
+    /// noise averaged over the window's span `T`) plus `zero_rate_sigma²` per axis, gated at
+    /// `chi2_gate`. `None`, and nothing changed, when the window does not show the IMU at rest
+    /// (or has fewer than two samples): a rig can turn about its radar with the scene's
+    /// Doppler at zero.
+    pub fn update_zero_rate(&mut self, window: &[ImuSample]) -> Option<UpdateOutcome> {
+        let (Some(first), Some(last)) = (window.first(), window.last()) else {
+            return None;
+        };
+        let span_s = last.time_s - first.time_s;
+        let rest = Rest::of(window);
+        if window.len() < 2 || !(span_s > 0.0) || !rest.at_rest() {
+            return None;
+        }
+        let p = &self.params;
+        let var = p.gyro_noise.powi(2) / span_s + p.zero_rate_sigma.powi(2);
+        let mut jac = Mat3x15::zeros();
+        jac.fixed_view_mut::<3, 3>(0, 12)
+            .copy_from(&Matrix3::identity());
+        Some(self.correct(
+            rest.w_mean - self.state.gyro_bias,
+            jac,
+            Matrix3::identity() * var,
+            p.chi2_gate,
+        ))
     }
 
     /// Correct with one static point's radial velocity measured now (call

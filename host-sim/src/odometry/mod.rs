@@ -276,6 +276,12 @@ pub struct UpdateCounts {
     pub points_applied: usize,
     /// Point updates rejected by their gate.
     pub points_gated: usize,
+    /// Zero-rate updates applied: frames with a radar standstill after one, the IMU at rest
+    /// in between ([`ekf::Ekf::update_zero_rate`]).
+    pub zero_rate: usize,
+    /// Zero-rate updates not applied: the IMU not at rest between the two standstills, or
+    /// the mean rate rejected by the χ² gate.
+    pub zero_rate_rejected: usize,
     /// Frames before the end of the initial standstill (no update).
     pub during_init: usize,
     /// Frames before a moving start (not in the trajectory).
@@ -367,6 +373,9 @@ pub fn run(
     let init_end = ekf.state().time_s;
     let mut last_applied = init_end;
     let mut updates = UpdateCounts::default();
+    // The measurement time of the last frame, if it was a radar standstill (zero-rate
+    // updates span two).
+    let mut standstill_since: Option<f64> = None;
     let mut trajectory = Vec::with_capacity(frames.len());
     let last_imu = imu.last().map_or(f64::NEG_INFINITY, |s| s.time_s);
     let advance = |ekf: &mut Ekf, next: &mut usize, t: f64| {
@@ -379,6 +388,7 @@ pub fn run(
         }
     };
     for f in frames {
+        let previous = standstill_since.take();
         if matches!(start, Start::Moving { .. }) && f.frame_time_s < init_end {
             updates.before_start += 1;
             continue;
@@ -423,6 +433,10 @@ pub fn run(
             continue;
         }
         advance(&mut ekf, &mut next, z.time_s);
+        let standstill = f.ego.status == EgoStatus::Standstill;
+        if standstill {
+            standstill_since = Some(z.time_s);
+        }
         match ekf.update(&z) {
             UpdateOutcome::Applied => {
                 updates.applied += 1;
@@ -439,6 +453,13 @@ pub fn run(
                 }
             }
             UpdateOutcome::Gated => updates.gated += 1,
+        }
+        if let Some(t0) = previous.filter(|_| standstill && params.zero_rate_updates) {
+            let window = &imu[imu.partition_point(|s| s.time_s <= t0).min(next)..next];
+            match ekf.update_zero_rate(window) {
+                Some(UpdateOutcome::Applied) => updates.zero_rate += 1,
+                _ => updates.zero_rate_rejected += 1,
+            }
         }
     }
     Ok(OdometryRun {
