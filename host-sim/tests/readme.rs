@@ -341,6 +341,36 @@ fn readme_point_update_figures_are_the_committed_report() -> TestResult {
     Ok(())
 }
 
+/// README's sentence on the zero-rate updates quotes the report's ablation: each chain's drift
+/// without them, and the DBE chain's started in motion without → with them.
+#[test]
+fn readme_zero_rate_figures_are_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let flat = one_line(&read("README.md")?);
+    let column = |v: &str, f: &dyn Fn(&Value) -> Result<f64, String>| -> Result<String, String> {
+        let x: Vec<String> = SEQUENCES
+            .iter()
+            .map(|seq| Ok(format!("{:.2}", f(odometry_row(&summary, seq, v)?)?)))
+            .collect::<Result<_, String>>()?;
+        Ok(x.join(" / "))
+    };
+    let without =
+        |i: usize| move |r: &Value| num(&r["xyz_pct_without_zero_rate"][i], "without zero rate");
+    let line = format!(
+        "took the DBE chain's drift from {} % to the table's, the FFT chain's from {} %",
+        column("dbe", &without(0))?,
+        column("fft", &without(0))?
+    );
+    assert!(flat.contains(&line), "README lacks the report's {line}");
+    let line = format!(
+        "took the DBE chain's drift from {} % to {} %)",
+        column("dbe", &without(1))?,
+        column("dbe", &|r| num(&r["xyz_pct_moving_start"], "moving start"))?
+    );
+    assert!(flat.contains(&line), "README lacks the report's {line}");
+    Ok(())
+}
+
 /// README's verdict on one sequence's paired drift difference DBE − FFT.
 #[derive(Debug)]
 enum Verdict {
