@@ -543,6 +543,15 @@ fn odometry_on_a_simulated_walk_writes_a_trajectory_evo_reads() -> TestResult {
     assert!(zero_rate.as_u64().is_some_and(|n| n > 0), "{summary}");
     assert_eq!(summary["updates"]["zero_rate_rejected"], 0, "{summary}");
     assert!(stdout.contains("zero-rate updates"), "{stdout}");
+    // The simulator stamps frames as the filter assumes: the estimated time offset is 0
+    // within 4 of its σ, which the 10 s of walking have shrunk from the 50 ms it starts with.
+    let td = &summary["time_offset"];
+    assert_eq!(td["estimated"], true, "{summary}");
+    let (est, sigma) = (
+        td["estimate_s"].as_f64().ok_or("no time offset")?,
+        td["sigma_s"].as_f64().ok_or("no time offset σ")?,
+    );
+    assert!(sigma < 0.05 && est.abs() < 4.0 * sigma, "{td}");
 
     // The IMU data cut 4 s in, while the rig walks: the filter starts in motion at the first
     // radar velocity with 0.25 s of IMU data before it, says so, and leaves the frames before
@@ -594,6 +603,12 @@ fn odometry_on_a_simulated_walk_writes_a_trajectory_evo_reads() -> TestResult {
         first_pose + 0.1 > start,
         "first pose {first_pose}, start {start}"
     );
+
+    // A time offset outside [−1, 1] s: an error naming the option, nothing written.
+    let bad = dir.path().join("odo1");
+    let err = fails(&["odometry", s(&seq), "--out", s(&bad), "--time-offset", "-5"]);
+    assert!(err.contains("--time-offset"), "{err}");
+    assert!(!bad.exists());
 
     // Missing IMU data or mounts: an error naming the file, nothing written.
     std::fs::remove_file(seq.join("imu/imu_data.txt"))?;

@@ -561,6 +561,15 @@ fn the_odometry_section_runs_both_chains_on_every_sequence() {
                 s.name,
                 r.xyz_pct_without_zero_rate
             );
+            // The stamp test ran both ways, and its radar velocities, stamped 50 ms early,
+            // moved the time-offset estimate up from the exact stamps' (4 s of walking).
+            assert!(r.xyz_pct_stamp_test.iter().all(Option::is_some), "{r:?}");
+            let (exact, early) = (r.time_offset_s, r.time_offset_stamp_test_s);
+            assert!(
+                matches!((exact, early), (Some(a), Some(b)) if b > a),
+                "{} {v}: time offset {exact:?}, stamped early {early:?}",
+                s.name
+            );
         }
     }
     // The FFT chain's dense points give an estimate on every moving frame of every sequence.

@@ -50,6 +50,15 @@ pub struct OdometryArgs {
     /// updates the gyro bias).
     #[arg(long)]
     pub no_zero_rate_updates: bool,
+    /// The radar's time offset to start from, s, in [−1, 1]: a frame's velocity, stamped at
+    /// its timestamp plus half its chirps' span, was measured this much later on the IMU's
+    /// clock. The filter estimates it from there (± 50 ms) unless --fix-time-offset
+    /// [default: 0].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub time_offset: Option<f64>,
+    /// Take the time offset (--time-offset, or 0) as exact instead of estimating it.
+    #[arg(long)]
+    pub fix_time_offset: bool,
     #[command(flatten)]
     pub params: ParamArgs,
 }
@@ -110,6 +119,10 @@ fn plot(dir: &Path, name: &str, est: &[StampedPose], gt: &[StampedPose]) -> Resu
 
 /// `dbe odometry`.
 pub fn run(args: &OdometryArgs) -> Result<()> {
+    let time_offset_s = args.time_offset.unwrap_or(0.0);
+    if !(time_offset_s.abs() <= 1.0) {
+        bail!("--time-offset {time_offset_s}: expected a value in [-1, 1] s");
+    }
     if !args.input.is_dir() {
         bail!(
             "{}: expected a ColoRadar sequence folder (odometry needs its imu/ data)",
@@ -162,6 +175,12 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     let ekf = EkfParams {
         point_updates: !args.no_point_updates,
         zero_rate_updates: !args.no_zero_rate_updates,
+        time_offset_s,
+        time_offset_sigma: if args.fix_time_offset {
+            0.0
+        } else {
+            EkfParams::default().time_offset_sigma
+        },
         ..EkfParams::default()
     };
     let run = odometry::run(&ekf, &imu, &frames, &transforms).context("radar-inertial odometry")?;
@@ -202,6 +221,12 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         },
         "updates": run.updates,
         "start": run.start,
+        "time_offset": {
+            "start_s": time_offset_s,
+            "estimated": !args.fix_time_offset,
+            "estimate_s": run.time_offset_s.0,
+            "sigma_s": run.time_offset_s.1,
+        },
         "imu_samples": imu.len(),
         "trajectory_poses": run.trajectory.len(),
     });
@@ -234,7 +259,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     write("summary.json", &serde_json::to_string_pretty(&summary)?)?;
     staged.commit()?;
     outln!(
-        "{} frames, {} radar updates ({} gated), {} point updates on {} frames without one ({} gated), {} zero-rate updates at standstills ({} rejected) in {:.1} s{line} → {}",
+        "{} frames, {} radar updates ({} gated), {} point updates on {} frames without one ({} gated), {} zero-rate updates at standstills ({} rejected), radar time offset {:.1} ± {:.1} ms in {:.1} s{line} → {}",
         frames.len(),
         run.updates.applied,
         run.updates.gated,
@@ -243,6 +268,8 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         run.updates.points_gated,
         run.updates.zero_rate,
         run.updates.zero_rate_rejected,
+        run.time_offset_s.0 * 1e3,
+        run.time_offset_s.1 * 1e3,
         started.elapsed().as_secs_f64(),
         args.out.display()
     )?;

@@ -16,7 +16,7 @@ use super::EvalError;
 use crate::cloud::PointRecord;
 use crate::io::StampedPose;
 use crate::odometry::ekf::{EkfParams, Start};
-use crate::odometry::{self, metrics, EgoErrors, RadialConsistency, UpdateCounts};
+use crate::odometry::{self, metrics, EgoErrors, FrameVelocity, RadialConsistency, UpdateCounts};
 use crate::sensor::SensorConfig;
 use crate::sim::{render::mix, scene_imu, Scene, Simulation};
 
@@ -51,6 +51,11 @@ const SEED_STREAM: u64 = 0x4F44_4F4D;
 /// rig walks ([`crate::odometry::start`]).
 pub const MOVING_START_CUT_S: f64 = 3.0;
 
+/// The time offset the stamp test puts on every radar velocity, s: stamped this much early
+/// (a velocity stamped t was measured at t + 0.05 s), as a frame-start stamp taken for the
+/// middle of the chirps or a transfer delay would.
+pub const STAMP_TEST_OFFSET_S: f64 = 0.05;
+
 /// One chain on one sequence and seed.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct OdometryRow {
@@ -83,6 +88,15 @@ pub struct OdometryRow {
     pub xyz_pct_without_zero_rate: [Option<f64>; 2],
     /// ATE without zero-rate updates, from rest, m.
     pub ate_m_without_zero_rate: Option<f64>,
+    /// The filter's estimate of the radar's time offset (truth 0), s.
+    pub time_offset_s: Option<f64>,
+    /// The stamp test: every radar velocity stamped [`STAMP_TEST_OFFSET_S`] early. XYZ drift
+    /// (% of the path) with the offset taken as 0 and estimated.
+    pub xyz_pct_stamp_test: [Option<f64>; 2],
+    /// The stamp test's ATE, m, with the offset taken as 0 and estimated.
+    pub ate_m_stamp_test: [Option<f64>; 2],
+    /// The stamp test's estimate of the offset, s.
+    pub time_offset_stamp_test_s: Option<f64>,
     /// Why the filter could not run.
     pub failure: Option<String>,
 }
@@ -175,10 +189,33 @@ pub fn run_odometry(
                 let without = drift(&no_points, false);
                 let moving = drift(&EkfParams::default(), true);
                 let without_zero_rate = [false, true].map(|m| errors(&no_zero_rate, m));
+                // The stamp test: the same frames stamped early, the offset fixed at 0 or
+                // estimated.
+                let early: Vec<_> = frames
+                    .iter()
+                    .map(|f| FrameVelocity {
+                        measure_time_s: f.measure_time_s - STAMP_TEST_OFFSET_S,
+                        ..f.clone()
+                    })
+                    .collect();
+                let stamp_test = [0.0, EkfParams::default().time_offset_sigma].map(|sigma| {
+                    let params = EkfParams {
+                        time_offset_sigma: sigma,
+                        ..EkfParams::default()
+                    };
+                    odometry::run(&params, &imu, &early, &scene.rig)
+                        .ok()
+                        .map(|r| (metrics::evaluate(&r.trajectory, &truth), r.time_offset_s.0))
+                });
                 let total: usize = frames.iter().map(|f| f.points).sum();
-                let (updates, errors, failure) = match run {
-                    Ok(r) => (r.updates, metrics::evaluate(&r.trajectory, &truth), None),
-                    Err(e) => (UpdateCounts::default(), None, Some(e.to_string())),
+                let (updates, errors, time_offset_s, failure) = match run {
+                    Ok(r) => (
+                        r.updates,
+                        metrics::evaluate(&r.trajectory, &truth),
+                        Some(r.time_offset_s.0),
+                        None,
+                    ),
+                    Err(e) => (UpdateCounts::default(), None, None, Some(e.to_string())),
                 };
                 rows.push(OdometryRow {
                     sequence: file.name.to_string(),
@@ -196,6 +233,16 @@ pub fn run_odometry(
                         .each_ref()
                         .map(|e| e.as_ref().map(|e| e.drift.xyz_pct)),
                     ate_m_without_zero_rate: without_zero_rate[0].as_ref().map(|e| e.ate_rmse_m),
+                    time_offset_s,
+                    xyz_pct_stamp_test: stamp_test.each_ref().map(|r| {
+                        r.as_ref()
+                            .and_then(|r| r.0.as_ref())
+                            .map(|e| e.drift.xyz_pct)
+                    }),
+                    ate_m_stamp_test: stamp_test
+                        .each_ref()
+                        .map(|r| r.as_ref().and_then(|r| r.0.as_ref()).map(|e| e.ate_rmse_m)),
+                    time_offset_stamp_test_s: stamp_test[1].as_ref().map(|r| r.1),
                     failure,
                 });
             }
@@ -268,6 +315,15 @@ pub struct OdometrySummary {
     pub ate_m_without_zero_rate: f64,
     /// Zero-rate updates applied per sequence run (mean).
     pub zero_rate_updates: f64,
+    /// The filter's time-offset estimate (truth 0), s: mean and standard deviation over seeds.
+    pub time_offset_s: (f64, f64),
+    /// The stamp test ([`STAMP_TEST_OFFSET_S`]): XYZ drift (% of the path) with the offset
+    /// taken as 0 and estimated (means over the seeds that have them).
+    pub xyz_pct_stamp_test: [f64; 2],
+    /// The stamp test's ATE, m, with the offset taken as 0 and estimated (means).
+    pub ate_m_stamp_test: [f64; 2],
+    /// The stamp test's time-offset estimate, s: mean and standard deviation over seeds.
+    pub time_offset_stamp_test_s: (f64, f64),
 }
 
 /// Aggregate `rows` per sequence and variant; `dbe`/`fft` name the paired variants.
@@ -293,11 +349,12 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
             let me = |f: &dyn Fn(&OdometryRow) -> f64| {
                 mean_std(&mine.iter().map(|r| f(r)).collect::<Vec<_>>()).map_or(f64::NAN, |x| x.0)
             };
-            // The mean over the rows that have the figure.
-            let mean_of_some = |f: &dyn Fn(&OdometryRow) -> Option<f64>| {
+            // Mean and standard deviation over the rows that have the figure.
+            let spread = |f: &dyn Fn(&OdometryRow) -> Option<f64>| {
                 mean_std(&mine.iter().filter_map(|r| f(r)).collect::<Vec<_>>())
-                    .map_or(f64::NAN, |x| x.0)
+                    .unwrap_or((f64::NAN, f64::NAN))
             };
+            let mean_of_some = |f: &dyn Fn(&OdometryRow) -> Option<f64>| spread(f).0;
             let paired = (v == dbe).then(|| {
                 let d: Vec<f64> = mine
                     .iter()
@@ -345,6 +402,10 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
                     .map(|i| mean_of_some(&|r| r.xyz_pct_without_zero_rate[i])),
                 ate_m_without_zero_rate: mean_of_some(&|r| r.ate_m_without_zero_rate),
                 zero_rate_updates: me(&|r| r.updates.zero_rate as f64),
+                time_offset_s: spread(&|r| r.time_offset_s),
+                xyz_pct_stamp_test: [0, 1].map(|i| mean_of_some(&|r| r.xyz_pct_stamp_test[i])),
+                ate_m_stamp_test: [0, 1].map(|i| mean_of_some(&|r| r.ate_m_stamp_test[i])),
+                time_offset_stamp_test_s: spread(&|r| r.time_offset_stamp_test_s),
             });
         }
     }

@@ -299,6 +299,9 @@ pub struct OdometryRun {
     pub updates: UpdateCounts,
     /// How the filter started.
     pub start: Start,
+    /// The radar's time offset t_d at the end, s, and its standard deviation
+    /// ([`ekf::EkfParams::time_offset_sigma`]).
+    pub time_offset_s: (f64, f64),
 }
 
 /// The base frame's pose from the IMU's: `R_wb = R_wi·R_biᵀ`, `p_wb = p_wi − R_wb·t_bi`.
@@ -373,8 +376,8 @@ pub fn run(
     let init_end = ekf.state().time_s;
     let mut last_applied = init_end;
     let mut updates = UpdateCounts::default();
-    // The measurement time of the last frame, if it was a radar standstill (zero-rate
-    // updates span two).
+    // The measurement time of the last frame (IMU clock), if it was a radar standstill
+    // (zero-rate updates span two).
     let mut standstill_since: Option<f64> = None;
     let mut trajectory = Vec::with_capacity(frames.len());
     let last_imu = imu.last().map_or(f64::NEG_INFINITY, |s| s.time_s);
@@ -412,10 +415,11 @@ pub fn run(
         let Some(z) = f.measurement() else {
             updates.no_estimate += 1;
             if params.point_updates && !f.radials.is_empty() && f.measure_time_s <= last_imu {
-                advance(&mut ekf, &mut next, f.measure_time_s);
+                let t = ekf.measure_time(f.measure_time_s);
+                advance(&mut ekf, &mut next, t);
                 let mut applied = 0;
                 for p in &f.radials {
-                    match ekf.update_point(p) {
+                    match ekf.update_point(p, f.measure_time_s) {
                         UpdateOutcome::Applied => applied += 1,
                         UpdateOutcome::Gated => updates.points_gated += 1,
                     }
@@ -432,10 +436,11 @@ pub fn run(
             updates.after_imu += 1;
             continue;
         }
-        advance(&mut ekf, &mut next, z.time_s);
+        let t = ekf.measure_time(z.time_s);
+        advance(&mut ekf, &mut next, t);
         let standstill = f.ego.status == EgoStatus::Standstill;
         if standstill {
-            standstill_since = Some(z.time_s);
+            standstill_since = Some(t);
         }
         match ekf.update(&z) {
             UpdateOutcome::Applied => {
@@ -466,6 +471,7 @@ pub fn run(
         trajectory,
         updates,
         start,
+        time_offset_s: (ekf.state().time_offset_s, ekf.time_offset_sigma()),
     })
 }
 
