@@ -371,6 +371,32 @@ fn readme_zero_rate_figures_are_the_committed_report() -> TestResult {
     Ok(())
 }
 
+/// README's sentence on the time offset quotes the range of the report's estimates, on the
+/// exact stamps and on the stamp test's.
+#[test]
+fn readme_time_offset_figures_are_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let flat = one_line(&read("README.md")?);
+    let rows = summary["odometry_summary"]
+        .as_array()
+        .ok_or("summary.json has no odometry_summary")?;
+    let range = |key: &str| -> Result<String, String> {
+        let mut r = (f64::INFINITY, f64::NEG_INFINITY);
+        for row in rows {
+            let x = num(&row[key][0], key)? * 1e3;
+            r = (r.0.min(x), r.1.max(x));
+        }
+        Ok(format!("{:.1} … {:.1} ms", r.0, r.1))
+    };
+    let line = format!(
+        "it estimates {}; with every radar velocity stamped 50 ms early, {} (mean over seeds",
+        range("time_offset_s")?,
+        range("time_offset_stamp_test_s")?
+    );
+    assert!(flat.contains(&line), "README lacks the report's {line}");
+    Ok(())
+}
+
 /// README's verdict on one sequence's paired drift difference DBE − FFT.
 #[derive(Debug)]
 enum Verdict {
