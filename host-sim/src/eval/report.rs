@@ -1064,26 +1064,8 @@ fn time_offset_paragraph(m: &mut String, e: &Evaluation) {
 /// The zero-rate paragraph of the odometry section: each row's drift without zero-rate
 /// updates against with them, from rest and in motion.
 fn zero_rate_paragraph(m: &mut String, e: &Evaluation) {
-    let rows = |start: usize, with: &dyn Fn(&OdometrySummary) -> f64| -> String {
-        let rows: Vec<String> = e
-            .odometry_summary
-            .iter()
-            .filter(|s| s.xyz_pct_without_zero_rate[start].is_finite() && with(s).is_finite())
-            .map(|s| {
-                format!(
-                    "{} {} {:.2} → {:.2}",
-                    s.sequence,
-                    s.variant,
-                    s.xyz_pct_without_zero_rate[start],
-                    with(s)
-                )
-            })
-            .collect();
-        if rows.is_empty() {
-            "none".to_string()
-        } else {
-            rows.join("; ")
-        }
+    let rows = |start: usize, with: &dyn Fn(&OdometrySummary) -> f64| {
+        arrows(e, 2, &|s| s.xyz_pct_without_zero_rate[start], with)
     };
     let updates: Vec<f64> = e
         .odometry_summary
@@ -1095,22 +1077,7 @@ fn zero_rate_paragraph(m: &mut String, e: &Evaluation) {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
             (a.min(x), b.max(x))
         });
-    let ate_rows: Vec<String> = e
-        .odometry_summary
-        .iter()
-        .filter(|s| s.ate_m_without_zero_rate.is_finite())
-        .map(|s| {
-            format!(
-                "{} {} {:.3} → {:.3}",
-                s.sequence, s.variant, s.ate_m_without_zero_rate, s.ate_rmse_m
-            )
-        })
-        .collect();
-    let ate_rows = if ate_rows.is_empty() {
-        "none".to_string()
-    } else {
-        ate_rows.join("; ")
-    };
+    let ate_rows = arrows(e, 3, &|s| s.ate_m_without_zero_rate, &|s| s.ate_rmse_m);
     let _ = writeln!(
         m,
         "Zero-rate updates: between two frames whose points read a standstill, with the IMU at \
@@ -1133,17 +1100,7 @@ fn zero_rate_paragraph(m: &mut String, e: &Evaluation) {
 /// The moving-start paragraph of the odometry section: each row's drift from a start at rest
 /// against the same filter started in motion.
 fn moving_start_paragraph(m: &mut String, e: &Evaluation) {
-    let rows: Vec<String> = e
-        .odometry_summary
-        .iter()
-        .filter(|s| s.xyz_pct_moving_start.is_finite())
-        .map(|s| {
-            format!(
-                "{} {} {:.2} → {:.2}",
-                s.sequence, s.variant, s.drift.xyz_pct, s.xyz_pct_moving_start
-            )
-        })
-        .collect();
+    let rows = arrows(e, 2, &|s| s.drift.xyz_pct, &|s| s.xyz_pct_moving_start);
     let _ = writeln!(
         m,
         "Started in motion: the same runs with the IMU data and the frames before {:.0} s dropped \
@@ -1154,13 +1111,37 @@ fn moving_start_paragraph(m: &mut String, e: &Evaluation) {
          at the start measures and no velocity update observes, turns the path until the stop \
          at the end measures it (zero-rate updates, below): the end point gains from that, the \
          poses written before it keep their errors.\n",
-        MOVING_START_CUT_S,
-        if rows.is_empty() {
-            "none".to_string()
-        } else {
-            rows.join("; ")
-        },
+        MOVING_START_CUT_S, rows,
     );
+}
+
+/// `sequence variant a → b` (`digits` decimals) for every odometry row where both are
+/// finite, joined by "; ", or "none".
+fn arrows(
+    e: &Evaluation,
+    digits: usize,
+    a: &dyn Fn(&OdometrySummary) -> f64,
+    b: &dyn Fn(&OdometrySummary) -> f64,
+) -> String {
+    let rows: Vec<String> = e
+        .odometry_summary
+        .iter()
+        .filter(|s| a(s).is_finite() && b(s).is_finite())
+        .map(|s| {
+            format!(
+                "{} {} {:.digits$} → {:.digits$}",
+                s.sequence,
+                s.variant,
+                a(s),
+                b(s)
+            )
+        })
+        .collect();
+    if rows.is_empty() {
+        "none".to_string()
+    } else {
+        rows.join("; ")
+    }
 }
 
 fn goals_section(m: &mut String, e: &Evaluation) {
