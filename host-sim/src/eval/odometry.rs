@@ -152,8 +152,6 @@ pub fn run_odometry(
                     per_frame.iter().map(|&(t, p)| (t + mid, p)).collect();
                 let radial = RadialConsistency::measure(&at_mid, velocity);
                 let run = odometry::run(&EkfParams::default(), &imu, &frames, &scene.rig);
-                // XYZ drift of the filter with `params`, from rest or (cut at
-                // MOVING_START_CUT_S) in motion.
                 let cut_imu: Vec<_> = imu
                     .iter()
                     .filter(|s| s.time_s >= MOVING_START_CUT_S)
@@ -164,6 +162,8 @@ pub fn run_odometry(
                     .filter(|f| f.frame_time_s >= MOVING_START_CUT_S)
                     .cloned()
                     .collect();
+                // The trajectory errors of the filter with `params`, from rest or (cut at
+                // MOVING_START_CUT_S) in motion; `None` if it started the other way.
                 let errors = |params: &EkfParams, moving: bool| {
                     let (imu, frames) = if moving {
                         (&cut_imu, &cut_frames)
