@@ -884,14 +884,12 @@ fn odometry_section(m: &mut String, e: &Evaluation) {
         }
     }
     let scales = |chain: &str| {
-        let v: Vec<f64> = e
-            .odometry_summary
-            .iter()
-            .filter(|s| s.variant == chain && s.radial_scale.is_finite())
-            .map(|s| s.radial_scale)
-            .collect();
-        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let (lo, hi) = span(
+            e.odometry_summary
+                .iter()
+                .filter(|s| s.variant == chain)
+                .map(|s| s.radial_scale),
+        );
         format!("{lo:.3}–{hi:.3}")
     };
     let low = |chain: &str| {
@@ -1000,14 +998,7 @@ fn odometry_section(m: &mut String, e: &Evaluation) {
 /// the stamp test's drift with the offset taken as 0 against estimated.
 fn time_offset_paragraph(m: &mut String, e: &Evaluation) {
     let s = &e.odometry_summary;
-    let range = |f: &dyn Fn(&OdometrySummary) -> f64| {
-        s.iter()
-            .map(f)
-            .filter(|x| x.is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-                (a.min(x), b.max(x))
-            })
-    };
+    let range = |f: &dyn Fn(&OdometrySummary) -> f64| span(s.iter().map(f));
     let exact = range(&|s| s.time_offset_s.0);
     let spread = range(&|s| s.time_offset_s.1);
     let early = range(&|s| s.time_offset_stamp_test_s.0);
@@ -1067,16 +1058,7 @@ fn zero_rate_paragraph(m: &mut String, e: &Evaluation) {
     let rows = |start: usize, with: &dyn Fn(&OdometrySummary) -> f64| {
         arrows(e, 2, &|s| s.xyz_pct_without_zero_rate[start], with)
     };
-    let updates: Vec<f64> = e
-        .odometry_summary
-        .iter()
-        .map(|s| s.zero_rate_updates)
-        .collect();
-    let (lo, hi) = updates
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-            (a.min(x), b.max(x))
-        });
+    let (lo, hi) = span(e.odometry_summary.iter().map(|s| s.zero_rate_updates));
     let ate_rows = arrows(e, 3, &|s| s.ate_m_without_zero_rate, &|s| s.ate_rmse_m);
     let _ = writeln!(
         m,
@@ -1084,8 +1066,8 @@ fn zero_rate_paragraph(m: &mut String, e: &Evaluation) {
          rest in between, the mean gyro rate is the gyro bias (`Ekf::update_zero_rate`). Every \
          sequence stands still for 2 s at its start (the first second starts the filter) and \
          1.5–2 s at its end: {lo:.0}–{hi:.0} such updates per run (mean over seeds). Those at \
-         the end measure the bias again, and through the \
-         filter's correlations correct the heading and position it has turned since; the \
+         the end measure the bias again, and through the filter's correlations correct the \
+         heading and position it has turned since; the \
          trajectory's earlier poses, written as the filter went, keep their errors (the ATE \
          moves less than the end point). XYZ drift (% of the path, mean over seeds) without → \
          with them, from rest: {}. ATE (m) without → with them, from rest: {}. In motion (the \
@@ -1113,6 +1095,16 @@ fn moving_start_paragraph(m: &mut String, e: &Evaluation) {
          poses written before it keep their errors.\n",
         MOVING_START_CUT_S, rows,
     );
+}
+
+/// The smallest and largest of the finite `values` ((∞, −∞) if none).
+fn span(values: impl IntoIterator<Item = f64>) -> (f64, f64) {
+    values
+        .into_iter()
+        .filter(|x| x.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        })
 }
 
 /// `sequence variant a → b` (`digits` decimals) for every odometry row where both are
