@@ -37,8 +37,8 @@
 //! turned since the last stop. Nothing but the χ² gate tells a slow turn at a standstill from
 //! a bias: a rig panned at under about 0.3°/s (4σ of the update once the bias is known; more
 //! while it is not) is partly taken for one. A person turning round, at tens of degrees per
-//! second, fails the IMU's rest test. The start velocity's raised covariance keeps one wrong first estimate (a
-//! pedestrian pulling the fit) from gating out every right one after it. The widening is for a
+//! second, fails the IMU's rest test. The start velocity's raised covariance keeps one wrong
+//! first estimate (a pedestrian pulling the fit) from gating out every right one after it. The widening is for a
 //! filter whose velocity went wrong (IMU errors beyond its parameters, a wrong start): its χ²
 //! gate would reject every right radar velocity after, and the IMU alone carries it off by
 //! metres within seconds. A moving object that fills the view for longer is let in the same
@@ -633,12 +633,12 @@ impl Ekf {
     /// out), which is also its derivative by `t_d`.
     fn predict_radar(&self, stamp_s: f64) -> (Vector3<f64>, Mat3xN) {
         let s = &self.state;
-        let r = s.attitude.to_rotation_matrix().into_inner();
-        let rt = r.transpose();
+        let rt = s.attitude.to_rotation_matrix().into_inner().transpose();
         let w = self.last.gyro - s.gyro_bias;
         let v_body = rt * s.velocity;
         let rit = self.r_ir.transpose();
-        let a_body = rt * (r * (self.last.accel - s.accel_bias) + self.gravity);
+        // Rᵀ·a: the specific force plus gravity in the IMU frame.
+        let a_body = self.last.accel - s.accel_bias + rt * self.gravity;
         let rate = rit * (a_body - w.cross(&v_body));
         let lag = stamp_s + s.time_offset_s - s.time_s;
         let lag = if lag.is_finite() { lag } else { 0.0 };
