@@ -552,10 +552,24 @@ fn odometry_on_a_simulated_walk_writes_a_trajectory_evo_reads() -> TestResult {
         td["sigma_s"].as_f64().ok_or("no time offset σ")?,
     );
     assert!(sigma < 0.05 && est.abs() < 4.0 * sigma, "{td}");
+    // The simulated radar's velocity scale: estimated from 1 ± 0.03, what the walk's start
+    // and stop show of it (its points' directions may read a slower radar by a per cent or
+    // two: the eval's *v_r scale*), within 4 of its σ of 1 … 0.97.
+    let k = &summary["velocity_scale"];
+    assert_eq!(k["estimated"], true, "{summary}");
+    let (est, sigma) = (
+        k["estimate"].as_f64().ok_or("no velocity scale")?,
+        k["sigma"].as_f64().ok_or("no velocity scale σ")?,
+    );
+    assert!(
+        sigma > 0.0 && sigma < 0.03 && est > 0.97 - 4.0 * sigma && est < 1.0 + 4.0 * sigma,
+        "{k}"
+    );
+    assert!(stdout.contains("velocity scale"), "{stdout}");
 
     // The IMU data cut 4 s in, while the rig walks: the filter starts in motion at the first
     // radar velocity with 0.25 s of IMU data before it, says so, and leaves the frames before
-    // it out of the trajectory.
+    // it out of the trajectory (here with the velocity scale fixed at 1).
     let lines = |f: &str| -> Result<Vec<String>, std::io::Error> {
         Ok(std::fs::read_to_string(seq.join(f))?
             .lines()
@@ -577,13 +591,26 @@ fn odometry_on_a_simulated_walk_writes_a_trajectory_evo_reads() -> TestResult {
         samples[keep..].join("\n") + "\n",
     )?;
     let moving = dir.path().join("odo-moving");
-    let o = dbe(&["odometry", s(&seq), "--out", s(&moving)]);
+    let o = dbe(&[
+        "odometry",
+        s(&seq),
+        "--out",
+        s(&moving),
+        "--fix-velocity-scale",
+    ]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
     assert!(stderr.contains("started in motion"), "{stderr}");
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(moving.join("summary.json"))?)?;
     assert_eq!(summary["start"]["mode"], "moving");
+    // --fix-velocity-scale: the scale is 1 and not estimated.
+    let k = &summary["velocity_scale"];
+    assert_eq!(
+        (&k["estimated"], k["estimate"].as_f64(), k["sigma"].as_f64()),
+        (&serde_json::json!(false), Some(1.0), Some(0.0)),
+        "{k}"
+    );
     let start = summary["start"]["time_s"].as_f64().ok_or("no start time")?;
     assert!(start >= t0 + 4.25, "start {start}");
     let before = summary["updates"]["before_start"]

@@ -59,6 +59,11 @@ pub struct OdometryArgs {
     /// Take the time offset (--time-offset, or 0) as exact instead of estimating it.
     #[arg(long)]
     pub fix_time_offset: bool,
+    /// Take the radar's velocity scale as 1 instead of estimating it (by default the filter
+    /// estimates the factor by which the radar's velocities read the true one, from 1 ± 0.03:
+    /// a direction bias of the points or a Doppler scale error).
+    #[arg(long)]
+    pub fix_velocity_scale: bool,
     #[command(flatten)]
     pub params: ParamArgs,
 }
@@ -181,6 +186,11 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         } else {
             EkfParams::default().time_offset_sigma
         },
+        velocity_scale_sigma: if args.fix_velocity_scale {
+            0.0
+        } else {
+            EkfParams::default().velocity_scale_sigma
+        },
         ..EkfParams::default()
     };
     let run = odometry::run(&ekf, &imu, &frames, &transforms).context("radar-inertial odometry")?;
@@ -227,6 +237,11 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             "estimate_s": run.time_offset_s.0,
             "sigma_s": run.time_offset_s.1,
         },
+        "velocity_scale": {
+            "estimated": !args.fix_velocity_scale,
+            "estimate": run.velocity_scale.0,
+            "sigma": run.velocity_scale.1,
+        },
         "imu_samples": imu.len(),
         "trajectory_poses": run.trajectory.len(),
     });
@@ -259,7 +274,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     write("summary.json", &serde_json::to_string_pretty(&summary)?)?;
     staged.commit()?;
     outln!(
-        "{} frames, {} radar updates ({} gated), {} point updates on {} frames without one ({} gated), {} zero-rate updates at standstills ({} rejected), radar time offset {:.1} ± {:.1} ms in {:.1} s{line} → {}",
+        "{} frames, {} radar updates ({} gated), {} point updates on {} frames without one ({} gated), {} zero-rate updates at standstills ({} rejected), radar time offset {:.1} ± {:.1} ms, velocity scale {:.4} ± {:.4} in {:.1} s{line} → {}",
         frames.len(),
         run.updates.applied,
         run.updates.gated,
@@ -270,6 +285,8 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         run.updates.zero_rate_rejected,
         run.time_offset_s.0 * 1e3,
         run.time_offset_s.1 * 1e3,
+        run.velocity_scale.0,
+        run.velocity_scale.1,
         started.elapsed().as_secs_f64(),
         args.out.display()
     )?;

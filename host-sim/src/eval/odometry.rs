@@ -97,6 +97,11 @@ pub struct OdometryRow {
     pub ate_m_stamp_test: [Option<f64>; 2],
     /// The stamp test's estimate of the offset, s.
     pub time_offset_stamp_test_s: Option<f64>,
+    /// The filter's estimate of the radar's velocity scale.
+    pub velocity_scale: Option<f64>,
+    /// The same filter with the velocity scale taken as 1 (the ablation of
+    /// [`EkfParams::velocity_scale_sigma`]): XYZ drift, % of the path, and ATE, m.
+    pub fixed_scale: [Option<f64>; 2],
     /// Why the filter could not run.
     pub failure: Option<String>,
 }
@@ -189,6 +194,13 @@ pub fn run_odometry(
                 let without = drift(&no_points, false);
                 let moving = drift(&EkfParams::default(), true);
                 let without_zero_rate = [false, true].map(|m| errors(&no_zero_rate, m));
+                let fixed_scale = errors(
+                    &EkfParams {
+                        velocity_scale_sigma: 0.0,
+                        ..EkfParams::default()
+                    },
+                    false,
+                );
                 // The stamp test: the same frames stamped early, the offset fixed at 0 or
                 // estimated.
                 let early: Vec<_> = frames
@@ -208,14 +220,21 @@ pub fn run_odometry(
                         .map(|r| (metrics::evaluate(&r.trajectory, &truth), r.time_offset_s.0))
                 });
                 let total: usize = frames.iter().map(|f| f.points).sum();
-                let (updates, errors, time_offset_s, failure) = match run {
+                let (updates, errors, time_offset_s, velocity_scale, failure) = match run {
                     Ok(r) => (
                         r.updates,
                         metrics::evaluate(&r.trajectory, &truth),
                         Some(r.time_offset_s.0),
+                        Some(r.velocity_scale.0),
                         None,
                     ),
-                    Err(e) => (UpdateCounts::default(), None, None, Some(e.to_string())),
+                    Err(e) => (
+                        UpdateCounts::default(),
+                        None,
+                        None,
+                        None,
+                        Some(e.to_string()),
+                    ),
                 };
                 rows.push(OdometryRow {
                     sequence: file.name.to_string(),
@@ -243,6 +262,11 @@ pub fn run_odometry(
                         .each_ref()
                         .map(|r| r.as_ref().and_then(|r| r.0.as_ref()).map(|e| e.ate_rmse_m)),
                     time_offset_stamp_test_s: stamp_test[1].as_ref().map(|r| r.1),
+                    velocity_scale,
+                    fixed_scale: [
+                        fixed_scale.as_ref().map(|e| e.drift.xyz_pct),
+                        fixed_scale.as_ref().map(|e| e.ate_rmse_m),
+                    ],
                     failure,
                 });
             }
@@ -324,6 +348,11 @@ pub struct OdometrySummary {
     pub ate_m_stamp_test: [f64; 2],
     /// The stamp test's time-offset estimate, s: mean and standard deviation over seeds.
     pub time_offset_stamp_test_s: (f64, f64),
+    /// The filter's velocity-scale estimate: mean and standard deviation over seeds.
+    pub velocity_scale: (f64, f64),
+    /// With the velocity scale taken as 1: XYZ drift (% of the path) and ATE (m), means over
+    /// the seeds that have them.
+    pub fixed_scale: [f64; 2],
 }
 
 /// Aggregate `rows` per sequence and variant; `dbe`/`fft` name the paired variants.
@@ -406,6 +435,8 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
                 xyz_pct_stamp_test: [0, 1].map(|i| mean_of_some(&|r| r.xyz_pct_stamp_test[i])),
                 ate_m_stamp_test: [0, 1].map(|i| mean_of_some(&|r| r.ate_m_stamp_test[i])),
                 time_offset_stamp_test_s: spread(&|r| r.time_offset_stamp_test_s),
+                velocity_scale: spread(&|r| r.velocity_scale),
+                fixed_scale: [0, 1].map(|i| mean_of_some(&|r| r.fixed_scale[i])),
             });
         }
     }

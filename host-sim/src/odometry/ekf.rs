@@ -2,13 +2,15 @@
 //! ego-velocity (Doer & Trommer 2020, "An EKF based approach to radar inertial odometry").
 //!
 //! ```text
-//! nominal state   p, v (world), q (IMU → world), b_a, b_g, t_d (the radar's time offset)
-//! error state     δp, δv, δθ (IMU frame), δb_a, δb_g, δt_d           16 values
+//! nominal state   p, v (world), q (IMU → world), b_a, b_g, t_d (the radar's time offset),
+//!                 s (the radar's velocity scale)
+//! error state     δp, δv, δθ (IMU frame), δb_a, δb_g, δt_d, δs       17 values
 //! propagation     a = R·(f − b_a) + g,  p += v·dt + a·dt²/2,  v += a·dt,  q ← q ⊗ Exp((ω − b_g)·dt)
-//!                 (IMU samples averaged over each interval); t_d constant
+//!                 (IMU samples averaged over each interval); t_d constant, s a random walk
+//!                 (`velocity_scale_walk`, by default 0: constant)
 //! radar update    at stamp + t_d on the IMU's clock:
-//!                 v_radar = R_irᵀ·(Rᵀ·v + (ω − b_g) × l_ir)           ω × l: the lever arm
-//!                 H = [0, R_irᵀRᵀ, R_irᵀ[Rᵀv]×, 0, R_irᵀ[l_ir]×, ḣ],  χ² gate on the innovation
+//!                 v_radar = s·h,  h = R_irᵀ·(Rᵀ·v + (ω − b_g) × l_ir)  ω × l: the lever arm
+//!                 H = [0, s·R_irᵀRᵀ, s·R_irᵀ[Rᵀv]×, 0, s·R_irᵀ[l_ir]×, s·ḣ, h],  χ² gate
 //!                 ḣ = R_irᵀ·(Rᵀ·a − ω × Rᵀ·v): the velocity's rate of change (`time_offset_sigma`)
 //! point update    v_r = −uᵀ·v_radar for one static point (direction u, radar frame), scalar,
 //!                 H = −uᵀ·H_radar, σ² = σ_f² + (σ⊥/r)²·|v_radar × u|², its own χ² gate
@@ -53,6 +55,15 @@
 //! down; `host-sim/tests/odometry.rs`). The filter starts from `time_offset_s` ±
 //! `time_offset_sigma` and learns the offset wherever the velocity changes.
 //!
+//! The velocity scale: a radar can read every velocity a little slow or fast, and no fit
+//! within one frame can tell. The points' directions are biased towards the boresight where
+//! a vertical surface returns from above and below the radar at one range (the eval's *v_r
+//! scale*, 0.98–0.99 on the simulated sequences), and a wrong chirp slope or carrier in a
+//! configuration scales the Doppler itself. A scale stretches the whole path. The IMU measures
+//! every change of the velocity (starts, stops, turns) and the radar reads s times it, so the
+//! filter estimates s from 1 ± `velocity_scale_sigma`; the eval's ablation shows what it
+//! changes (`docs/eval/report.md`).
+//!
 //! `R_ir`, `l_ir` place the radar in the IMU frame (from the base → sensor transforms). The
 //! world frame is gravity-aligned (z up) with the IMU's initial yaw as its x axis. The radar
 //! measurement is the velocity at the frame's mean chirp time; the covariance is the
@@ -70,10 +81,13 @@ use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 use crate::sim::imu::{ImuSample, GRAVITY_MPS2};
 use crate::sim::trajectory::Mount;
 
-/// Error-state size: δp, δv, δθ, δb_a, δb_g (3 each) and the radar's time offset δt_d.
-const N: usize = 16;
+/// Error-state size: δp, δv, δθ, δb_a, δb_g (3 each), the radar's time offset δt_d and its
+/// velocity scale δs.
+const N: usize = 17;
 /// Index of δt_d in the error state.
 const TD: usize = 15;
+/// Index of δs in the error state.
+const SC: usize = 16;
 type MatN = SMatrix<f64, N, N>;
 type Mat3xN = SMatrix<f64, 3, N>;
 
@@ -152,6 +166,11 @@ pub struct EkfParams {
     /// may still turn, on average over a frame interval, while the radar reads a standstill
     /// and the IMU rest.
     pub zero_rate_sigma: f64,
+    /// Standard deviation of the radar's velocity scale at the start (from 1): the filter
+    /// estimates the factor its radar velocities read of the true one (0: taken as 1).
+    pub velocity_scale_sigma: f64,
+    /// Random walk of that scale, 1/√s: how fast it may drift as the scene changes.
+    pub velocity_scale_walk: f64,
 }
 
 impl Default for EkfParams {
@@ -181,6 +200,8 @@ impl Default for EkfParams {
             time_offset_sigma: 0.05,
             zero_rate_updates: true,
             zero_rate_sigma: 1.0e-3,
+            velocity_scale_sigma: 0.03,
+            velocity_scale_walk: 0.0,
         }
     }
 }
@@ -264,6 +285,8 @@ pub struct State {
     /// The radar's time offset t_d, s: a radar measurement stamped `t` was taken at `t + t_d`
     /// on the IMU's clock.
     pub time_offset_s: f64,
+    /// The radar's velocity scale s: its velocities read s times the true one.
+    pub velocity_scale: f64,
 }
 
 /// What an update did.
@@ -437,6 +460,7 @@ impl Ekf {
             accel_bias,
             gyro_bias: w_mean,
             time_offset_s: params.time_offset_s,
+            velocity_scale: 1.0,
         };
         Ok((
             Self::start(params, state, cov, tilt, last, radar, imu_mount),
@@ -506,6 +530,7 @@ impl Ekf {
             accel_bias: Vector3::zeros(),
             gyro_bias: Vector3::zeros(),
             time_offset_s: params.time_offset_s,
+            velocity_scale: 1.0,
         };
         Ok((
             Self::start(params, state, cov, tilt, last, radar, imu_mount),
@@ -528,6 +553,7 @@ impl Ekf {
         cov[(7, 7)] = tilt * tilt;
         cov[(8, 8)] = 1e-12; // yaw is the world frame's definition
         cov[(TD, TD)] = params.time_offset_sigma.powi(2);
+        cov[(SC, SC)] = params.velocity_scale_sigma.powi(2);
         for i in 9..12 {
             cov[(i, i)] = params.init_accel_bias_sigma.powi(2);
         }
@@ -559,7 +585,12 @@ impl Ekf {
         self.cov[(TD, TD)].max(0.0).sqrt()
     }
 
-    /// The error-state covariance (order δp, δv, δθ, δb_a, δb_g, δt_d).
+    /// The velocity scale's standard deviation.
+    pub fn velocity_scale_sigma(&self) -> f64 {
+        self.cov[(SC, SC)].max(0.0).sqrt()
+    }
+
+    /// The error-state covariance (order δp, δv, δθ, δb_a, δb_g, δt_d, δs).
     pub fn covariance(&self) -> &MatN {
         &self.cov
     }
@@ -623,6 +654,7 @@ impl Ekf {
             q[(9 + i, 9 + i)] = p.accel_bias_walk.powi(2) * dt;
             q[(12 + i, 12 + i)] = p.gyro_bias_walk.powi(2) * dt;
         }
+        q[(SC, SC)] = p.velocity_scale_walk.powi(2) * dt;
         self.cov = fm * self.cov * fm.transpose() + q;
     }
 
@@ -650,7 +682,11 @@ impl Ekf {
             .copy_from(&(rit * skew(&v_body)));
         jac.fixed_view_mut::<3, 3>(0, 12)
             .copy_from(&(rit * skew(&self.l_ir)));
-        (h, jac)
+        // What the radar reads: s times the true velocity.
+        let scale = s.velocity_scale;
+        jac *= scale;
+        jac.fixed_view_mut::<3, 1>(0, SC).copy_from(&h);
+        (h * scale, jac)
     }
 
     /// Correct with a radar velocity (call [`Self::propagate_to`] its time plus the time
@@ -754,6 +790,7 @@ impl Ekf {
         st.accel_bias += dx.fixed_rows::<3>(9);
         st.gyro_bias += dx.fixed_rows::<3>(12);
         st.time_offset_s += dx[TD];
+        st.velocity_scale += dx[SC];
         UpdateOutcome::Applied
     }
 }

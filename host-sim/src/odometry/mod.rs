@@ -302,6 +302,9 @@ pub struct OdometryRun {
     /// The radar's time offset t_d at the end, s, and its standard deviation
     /// ([`ekf::EkfParams::time_offset_sigma`]).
     pub time_offset_s: (f64, f64),
+    /// The radar's velocity scale at the end and its standard deviation
+    /// ([`ekf::EkfParams::velocity_scale_sigma`]).
+    pub velocity_scale: (f64, f64),
 }
 
 /// The base frame's pose from the IMU's: `R_wb = R_wi·R_biᵀ`, `p_wb = p_wi − R_wb·t_bi`.
@@ -472,6 +475,7 @@ pub fn run(
         updates,
         start,
         time_offset_s: (ekf.state().time_offset_s, ekf.time_offset_sigma()),
+        velocity_scale: (ekf.state().velocity_scale, ekf.velocity_scale_sigma()),
     })
 }
 
