@@ -397,6 +397,57 @@ fn readme_time_offset_figures_are_the_committed_report() -> TestResult {
     Ok(())
 }
 
+/// README's sentence on the velocity scale quotes the report's estimates (their range), its
+/// ablation's ATE per chain, and the footpath's end-point drift with the scale taken as 1 →
+/// estimated.
+#[test]
+fn readme_velocity_scale_figures_are_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let flat = one_line(&read("README.md")?);
+    let column = |v: &str, f: &dyn Fn(&Value) -> Result<f64, String>| -> Result<String, String> {
+        let x: Vec<String> = SEQUENCES
+            .iter()
+            .map(|seq| Ok(format!("{:.3}", f(odometry_row(&summary, seq, v)?)?)))
+            .collect::<Result<_, String>>()?;
+        Ok(x.join(" / "))
+    };
+    let fixed = |i: usize| move |r: &Value| num(&r["fixed_scale"][i], "fixed scale");
+    let ate = |r: &Value| num(&r["ate_rmse_m"], "ATE");
+    let mut range = (f64::INFINITY, f64::NEG_INFINITY);
+    for seq in SEQUENCES {
+        for v in ["dbe", "fft"] {
+            let k = num(
+                &odometry_row(&summary, seq, v)?["velocity_scale"][0],
+                "scale",
+            )?;
+            range = (range.0.min(k), range.1.max(k));
+        }
+    }
+    let outdoors = |v: &str| -> Result<String, String> {
+        let r = odometry_row(&summary, "outdoors", v)?;
+        Ok(format!(
+            "{:.2} to {:.2} %",
+            num(&r["fixed_scale"][0], "fixed scale")?,
+            num(&r["drift"]["xyz_pct"], "drift")?
+        ))
+    };
+    let line = format!(
+        "it estimates {:.3} … {:.3} (DBE and FFT chains, mean over seeds); it took the DBE \
+         chain's ATE from {} m to {} m, the FFT chain's from {} m to {} m, and the footpath's \
+         end-point drift from {} (DBE) and {} (FFT)",
+        range.0,
+        range.1,
+        column("dbe", &fixed(1))?,
+        column("dbe", &ate)?,
+        column("fft", &fixed(1))?,
+        column("fft", &ate)?,
+        outdoors("dbe")?,
+        outdoors("fft")?
+    );
+    assert!(flat.contains(&line), "README lacks the report's {line}");
+    Ok(())
+}
+
 /// README's verdict on one sequence's paired drift difference DBE − FFT.
 #[derive(Debug)]
 enum Verdict {
