@@ -588,6 +588,17 @@ fn the_odometry_section_runs_both_chains_on_every_sequence() {
     }
     let summary = &e.odometry_summary;
     assert_eq!(summary.len(), seqs.len() * 3);
+    // The relative errors (10/20/30 % of the path) are in every row: a filter that ran has
+    // sub-trajectories of each length, and their end errors are not all zero.
+    for s in summary {
+        assert!(
+            s.relative_pct.iter().all(|x| x.is_finite() && *x > 0.0),
+            "{} {}: relative {:?}",
+            s.sequence,
+            s.variant,
+            s.relative_pct
+        );
+    }
     assert!(summary
         .iter()
         .filter(|s| s.variant == names::DBE)

@@ -307,6 +307,9 @@ pub struct OdometrySummary {
     pub xyz_pct_std: f64,
     /// ATE after the 4-DoF alignment, m (mean).
     pub ate_rmse_m: f64,
+    /// Relative error over sub-trajectories of 10, 20 and 30 % of the path: mean end-position
+    /// error, % of their length (mean over seeds; NaN where the path is too short).
+    pub relative_pct: [f64; 3],
     /// Ego-velocity RMSE per axis, m/s (mean).
     pub ego_rmse_mps: [f64; 3],
     /// Share of moving frames with an estimate, % (mean).
@@ -416,6 +419,13 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
                 xyz_pct_std: mean_std(&ok.iter().map(|e| e.drift.xyz_pct).collect::<Vec<_>>())
                     .map_or(f64::NAN, |x| x.1),
                 ate_rmse_m: m(&|e| e.ate_rmse_m),
+                relative_pct: [0, 1, 2].map(|i| {
+                    m(&|e| {
+                        e.relative
+                            .get(i)
+                            .map_or(f64::NAN, |r| r.translation_mean_pct)
+                    })
+                }),
                 ego_rmse_mps: [0, 1, 2].map(|i| me(&|r| r.ego.rmse_mps[i])),
                 estimated_while_moving_pct: me(&|r| r.ego.estimated_while_moving_pct),
                 ego_nees: me(&|r| r.ego.nees),
