@@ -448,6 +448,52 @@ fn readme_velocity_scale_figures_are_the_committed_report() -> TestResult {
     Ok(())
 }
 
+/// README's sentence on the relative errors quotes the report's (DBE against FFT, 10 / 20 /
+/// 30 % of the path) and its verdicts hold: the DBE chain below FFT at every length on aspen
+/// and at 20 and 30 % on hallways, above at every length on outdoors and army.
+#[test]
+fn readme_relative_errors_are_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let flat = one_line(&read("README.md")?);
+    let rel = |seq: &str, v: &str| -> Result<Vec<f64>, String> {
+        (0..3)
+            .map(|i| {
+                num(
+                    &odometry_row(&summary, seq, v)?["relative_pct"][i],
+                    "relative",
+                )
+            })
+            .collect()
+    };
+    let text = |x: &[f64]| {
+        x.iter()
+            .map(|x| format!("{x:.2}"))
+            .collect::<Vec<_>>()
+            .join("/")
+    };
+    let mut parts = Vec::new();
+    for seq in SEQUENCES {
+        let (d, f) = (rel(seq, "dbe")?, rel(seq, "fft")?);
+        parts.push(format!("{seq} {} against {}", text(&d), text(&f)));
+        let lengths: &[usize] = match seq {
+            "hallways" => &[1, 2],
+            _ => &[0, 1, 2],
+        };
+        let ahead = seq == "hallways" || seq == "aspen";
+        for &i in lengths {
+            assert!(
+                (d[i] < f[i]) == ahead,
+                "{seq}: relative error DBE {:.2} against FFT {:.2} at length {i}",
+                d[i],
+                f[i]
+            );
+        }
+    }
+    let line = format!("DBE against FFT: {}.", parts.join(", "));
+    assert!(flat.contains(&line), "README lacks the report's {line}");
+    Ok(())
+}
+
 /// README's verdict on one sequence's paired drift difference DBE − FFT.
 #[derive(Debug)]
 enum Verdict {
