@@ -852,8 +852,8 @@ fn odometry_section(m: &mut String, e: &Evaluation) {
          (position and yaw), the error at the last (uzh-rpg / the paper's end-point columns); ATE after the \
          4-DoF alignment of the whole trajectory; relative error (uzh-rpg): every sub-trajectory of 10, \
          20 and 30 % of the path aligned to the truth at its first pose, the mean error at its end in % of \
-         its length (a loop's end point hides what the path's parts drifted; these do not); ego-velocity RMSE against the exact radar velocity at each \
-         frame's mean chirp time, over the frames with an estimate; ego NEES: the mean of eᵀΣ⁻¹e/3 of the \
+         its length (a loop's end point hides what the path's parts drifted; these do not); \
+         ego-velocity RMSE against the exact radar velocity at each frame's mean chirp time, over the frames with an estimate; ego NEES: the mean of eᵀΣ⁻¹e/3 of the \
          estimates against their reported covariance (1 when the covariance is right). Means over seeds; ± \
          the standard deviation.\n",
         c.odometry_seeds,

@@ -58,7 +58,7 @@
 //! The velocity scale: a radar can read every velocity a little slow or fast, and no fit
 //! within one frame can tell. The points' directions are biased towards the boresight where
 //! a vertical surface returns from above and below the radar at one range (the eval's *v_r
-//! scale*, 0.98–0.99 on the simulated sequences), and a wrong chirp slope or carrier in a
+//! scale*, 0.980–0.996 on the simulated sequences), and a wrong chirp slope or carrier in a
 //! configuration scales the Doppler itself. A scale stretches the whole path. The IMU measures
 //! every change of the velocity (starts, stops, turns) and the radar reads s times it, so the
 //! filter estimates s from 1 ± `velocity_scale_sigma`; the eval's ablation shows what it
