@@ -189,6 +189,26 @@ fn odometry_row<'a>(
         .ok_or_else(|| format!("summary.json: no odometry row {sequence} {variant}"))
 }
 
+/// One figure of `variant`'s odometry rows for every sequence, `digits` decimals, joined by
+/// " / " (README's "hallways / outdoors / aspen / army" lists).
+fn odometry_column(
+    summary: &Value,
+    variant: &str,
+    digits: usize,
+    f: &dyn Fn(&Value) -> Result<f64, String>,
+) -> Result<String, String> {
+    let x: Vec<String> = SEQUENCES
+        .iter()
+        .map(|seq| {
+            Ok(format!(
+                "{:.digits$}",
+                f(odometry_row(summary, seq, variant)?)?
+            ))
+        })
+        .collect::<Result<_, String>>()?;
+    Ok(x.join(" / "))
+}
+
 #[test]
 fn readme_odometry_table_is_the_committed_report() -> TestResult {
     let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
@@ -347,13 +367,8 @@ fn readme_point_update_figures_are_the_committed_report() -> TestResult {
 fn readme_zero_rate_figures_are_the_committed_report() -> TestResult {
     let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
     let flat = one_line(&read("README.md")?);
-    let column = |v: &str, f: &dyn Fn(&Value) -> Result<f64, String>| -> Result<String, String> {
-        let x: Vec<String> = SEQUENCES
-            .iter()
-            .map(|seq| Ok(format!("{:.2}", f(odometry_row(&summary, seq, v)?)?)))
-            .collect::<Result<_, String>>()?;
-        Ok(x.join(" / "))
-    };
+    let column =
+        |v: &str, f: &dyn Fn(&Value) -> Result<f64, String>| odometry_column(&summary, v, 2, f);
     let without =
         |i: usize| move |r: &Value| num(&r["xyz_pct_without_zero_rate"][i], "without zero rate");
     let line = format!(
@@ -404,13 +419,8 @@ fn readme_time_offset_figures_are_the_committed_report() -> TestResult {
 fn readme_velocity_scale_figures_are_the_committed_report() -> TestResult {
     let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
     let flat = one_line(&read("README.md")?);
-    let column = |v: &str, f: &dyn Fn(&Value) -> Result<f64, String>| -> Result<String, String> {
-        let x: Vec<String> = SEQUENCES
-            .iter()
-            .map(|seq| Ok(format!("{:.3}", f(odometry_row(&summary, seq, v)?)?)))
-            .collect::<Result<_, String>>()?;
-        Ok(x.join(" / "))
-    };
+    let column =
+        |v: &str, f: &dyn Fn(&Value) -> Result<f64, String>| odometry_column(&summary, v, 3, f);
     let fixed = |i: usize| move |r: &Value| num(&r["fixed_scale"][i], "fixed scale");
     let ate = |r: &Value| num(&r["ate_rmse_m"], "ATE");
     let mut range = (f64::INFINITY, f64::NEG_INFINITY);
