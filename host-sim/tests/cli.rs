@@ -569,7 +569,7 @@ fn odometry_on_a_simulated_walk_writes_a_trajectory_evo_reads() -> TestResult {
 
     // The IMU data cut 4 s in, while the rig walks: the filter starts in motion at the first
     // radar velocity with 0.25 s of IMU data before it, says so, and leaves the frames before
-    // it out of the trajectory (here with the velocity scale fixed at 1).
+    // it out of the trajectory (here with the velocity scale fixed at 1.01).
     let lines = |f: &str| -> Result<Vec<String>, std::io::Error> {
         Ok(std::fs::read_to_string(seq.join(f))?
             .lines()
@@ -596,6 +596,8 @@ fn odometry_on_a_simulated_walk_writes_a_trajectory_evo_reads() -> TestResult {
         s(&seq),
         "--out",
         s(&moving),
+        "--velocity-scale",
+        "1.01",
         "--fix-velocity-scale",
     ]);
     let stderr = String::from_utf8_lossy(&o.stderr);
@@ -604,11 +606,16 @@ fn odometry_on_a_simulated_walk_writes_a_trajectory_evo_reads() -> TestResult {
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(moving.join("summary.json"))?)?;
     assert_eq!(summary["start"]["mode"], "moving");
-    // --fix-velocity-scale: the scale is 1 and not estimated.
+    // --velocity-scale 1.01 --fix-velocity-scale: the scale is 1.01 and not estimated.
     let k = &summary["velocity_scale"];
     assert_eq!(
-        (&k["estimated"], k["estimate"].as_f64(), k["sigma"].as_f64()),
-        (&serde_json::json!(false), Some(1.0), Some(0.0)),
+        (
+            k["start"].as_f64(),
+            &k["estimated"],
+            k["estimate"].as_f64(),
+            k["sigma"].as_f64()
+        ),
+        (Some(1.01), &serde_json::json!(false), Some(1.01), Some(0.0)),
         "{k}"
     );
     let start = summary["start"]["time_s"].as_f64().ok_or("no start time")?;
@@ -635,6 +642,17 @@ fn odometry_on_a_simulated_walk_writes_a_trajectory_evo_reads() -> TestResult {
     let bad = dir.path().join("odo1");
     let err = fails(&["odometry", s(&seq), "--out", s(&bad), "--time-offset", "-5"]);
     assert!(err.contains("--time-offset"), "{err}");
+    assert!(!bad.exists());
+    // A velocity scale outside [0.5, 2]: the same.
+    let err = fails(&[
+        "odometry",
+        s(&seq),
+        "--out",
+        s(&bad),
+        "--velocity-scale",
+        "0",
+    ]);
+    assert!(err.contains("--velocity-scale"), "{err}");
     assert!(!bad.exists());
 
     // Missing IMU data or mounts: an error naming the file, nothing written.

@@ -889,13 +889,20 @@ fn the_filter_estimates_the_radars_velocity_scale() -> TestResult {
             let (k, sigma) = run.velocity_scale;
             let without = odometry::run(&fixed, &imu, &radar, &scene.rig)?;
             assert_eq!(without.velocity_scale, (1.0, 0.0));
+            // Told the scale, the filter keeps it.
+            let told = EkfParams {
+                velocity_scale: truth_s,
+                ..fixed.clone()
+            };
+            let known = odometry::run(&told, &imu, &radar, &scene.rig)?;
+            assert_eq!(known.velocity_scale, (truth_s, 0.0));
             let ate = |r: &odometry::OdometryRun| {
                 metrics::evaluate(&r.trajectory, &gt).map_or(f64::NAN, |e| e.ate_rmse_m)
             };
-            let (ate_est, ate_fixed) = (ate(&run), ate(&without));
+            let (ate_est, ate_fixed, ate_known) = (ate(&run), ate(&without), ate(&known));
             eprintln!(
                 "s {truth_s}, seed {seed}: estimate {k:.4} ± {sigma:.4}; ATE {ate_est:.3} m \
-                 (scale taken as 1: {ate_fixed:.3} m)"
+                 (scale taken as 1: {ate_fixed:.3} m; told the scale: {ate_known:.3} m)"
             );
             assert!(sigma > 0.0 && sigma < 0.01, "seed {seed}: σ {sigma}");
             assert!(
@@ -904,8 +911,8 @@ fn the_filter_estimates_the_radars_velocity_scale() -> TestResult {
             );
             if truth_s != 1.0 {
                 assert!(
-                    ate_est < ate_fixed,
-                    "seed {seed}: ATE {ate_est} ≥ {ate_fixed}"
+                    ate_est < ate_fixed && ate_known < ate_fixed,
+                    "seed {seed}: ATE {ate_est} (told {ate_known}) ≥ {ate_fixed}"
                 );
             } else {
                 unbiased.0.push(format!("{ate_est:.3}"));

@@ -59,9 +59,12 @@ pub struct OdometryArgs {
     /// Take the time offset (--time-offset, or 0) as exact instead of estimating it.
     #[arg(long)]
     pub fix_time_offset: bool,
-    /// Take the radar's velocity scale as 1 instead of estimating it (by default the filter
-    /// estimates the factor by which the radar's velocities read the true one, from 1 ± 0.03:
-    /// a direction bias of the points or a Doppler scale error).
+    /// The radar's velocity scale to start from, in [0.5, 2]: its velocities read this many
+    /// times the true one (a direction bias of the points, a Doppler scale error). The filter
+    /// estimates it from there (± 0.03) unless --fix-velocity-scale [default: 1].
+    #[arg(long, value_name = "K")]
+    pub velocity_scale: Option<f64>,
+    /// Take the velocity scale (--velocity-scale, or 1) as exact instead of estimating it.
     #[arg(long)]
     pub fix_velocity_scale: bool,
     #[command(flatten)]
@@ -128,6 +131,10 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     if !(time_offset_s.abs() <= 1.0) {
         bail!("--time-offset {time_offset_s}: expected a value in [-1, 1] s");
     }
+    let velocity_scale = args.velocity_scale.unwrap_or(1.0);
+    if !(0.5..=2.0).contains(&velocity_scale) {
+        bail!("--velocity-scale {velocity_scale}: expected a value in [0.5, 2]");
+    }
     if !args.input.is_dir() {
         bail!(
             "{}: expected a ColoRadar sequence folder (odometry needs its imu/ data)",
@@ -186,6 +193,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         } else {
             EkfParams::default().time_offset_sigma
         },
+        velocity_scale,
         velocity_scale_sigma: if args.fix_velocity_scale {
             0.0
         } else {
@@ -238,6 +246,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             "sigma_s": run.time_offset_s.1,
         },
         "velocity_scale": {
+            "start": velocity_scale,
             "estimated": !args.fix_velocity_scale,
             "estimate": run.velocity_scale.0,
             "sigma": run.velocity_scale.1,

@@ -61,8 +61,8 @@
 //! scale*, 0.980–0.996 on the simulated sequences), and a wrong chirp slope or carrier in a
 //! configuration scales the Doppler itself. A scale stretches the whole path. The IMU measures
 //! every change of the velocity (starts, stops, turns) and the radar reads s times it, so the
-//! filter estimates s from 1 ± `velocity_scale_sigma`; the eval's ablation shows what it
-//! changes (`docs/eval/report.md`).
+//! filter estimates s from `velocity_scale` (1) ± `velocity_scale_sigma`; the eval's ablation
+//! shows what it changes (`docs/eval/report.md`).
 //!
 //! `R_ir`, `l_ir` place the radar in the IMU frame (from the base → sensor transforms). The
 //! world frame is gravity-aligned (z up) with the IMU's initial yaw as its x axis. The radar
@@ -166,8 +166,11 @@ pub struct EkfParams {
     /// may still turn, on average over a frame interval, while the radar reads a standstill
     /// and the IMU rest.
     pub zero_rate_sigma: f64,
-    /// Standard deviation of the radar's velocity scale at the start (from 1): the filter
-    /// estimates the factor its radar velocities read of the true one (0: taken as 1).
+    /// The radar's velocity scale at the start: its velocities read this many times the true
+    /// one.
+    pub velocity_scale: f64,
+    /// Standard deviation of that start value: the filter estimates the scale from the IMU's
+    /// velocity changes (0: it is taken as exact).
     pub velocity_scale_sigma: f64,
     /// Random walk of that scale, 1/√s: how fast it may drift as the scene changes.
     pub velocity_scale_walk: f64,
@@ -200,6 +203,7 @@ impl Default for EkfParams {
             time_offset_sigma: 0.05,
             zero_rate_updates: true,
             zero_rate_sigma: 1.0e-3,
+            velocity_scale: 1.0,
             velocity_scale_sigma: 0.03,
             velocity_scale_walk: 0.0,
         }
@@ -460,7 +464,7 @@ impl Ekf {
             accel_bias,
             gyro_bias: w_mean,
             time_offset_s: params.time_offset_s,
-            velocity_scale: 1.0,
+            velocity_scale: params.velocity_scale,
         };
         Ok((
             Self::start(params, state, cov, tilt, last, radar, imu_mount),
@@ -503,8 +507,8 @@ impl Ekf {
         let attitude = level(&f_mean);
         let r = attitude.to_rotation_matrix().into_inner();
         let (r_ir, l_ir) = radar_in_imu(radar, imu_mount);
-        // z = R_irᵀ·(Rᵀ·v + ω × l_ir) with the gyro bias taken as 0.
-        let velocity = r * (r_ir * z.velocity - last.gyro.cross(&l_ir));
+        // z = s·R_irᵀ·(Rᵀ·v + ω × l_ir) with the gyro bias taken as 0.
+        let velocity = r * (r_ir * z.velocity / params.velocity_scale - last.gyro.cross(&l_ir));
         let tilt = params.init_moving_tilt_sigma;
         let floor = params
             .velocity_sigma_floor
@@ -530,7 +534,7 @@ impl Ekf {
             accel_bias: Vector3::zeros(),
             gyro_bias: Vector3::zeros(),
             time_offset_s: params.time_offset_s,
-            velocity_scale: 1.0,
+            velocity_scale: params.velocity_scale,
         };
         Ok((
             Self::start(params, state, cov, tilt, last, radar, imu_mount),
