@@ -40,11 +40,12 @@
 //! a bias: a rig panned at under about 0.3°/s (4σ of the update once the bias is known; more
 //! while it is not) is partly taken for one. A person turning round, at tens of degrees per
 //! second, fails the IMU's rest test. The start velocity's raised covariance keeps one wrong
-//! first estimate (a pedestrian pulling the fit) from gating out every right one after it. The widening is for a
-//! filter whose velocity went wrong (IMU errors beyond its parameters, a wrong start): its χ²
-//! gate would reject every right radar velocity after, and the IMU alone carries it off by
-//! metres within seconds. A moving object that fills the view for longer is let in the same
-//! way, and the static scene after it again: an error of a second or two, not a lost filter.
+//! first estimate (a pedestrian pulling the fit) from gating out every right one after it.
+//! The widening is for a filter whose velocity went wrong (IMU errors beyond its parameters,
+//! a wrong start): its χ² gate would reject every right radar velocity after, and the IMU
+//! alone carries it off by metres within seconds. A moving object that fills the view for
+//! longer is let in the same way, and the static scene after it again: an error of a second
+//! or two, not a lost filter.
 //!
 //! The time offset: a radar's stamps are rarely the IMU's clock at the middle of the chirps
 //! (a frame-end or arrival stamp, a transfer delay), and a velocity taken at the wrong time is
@@ -584,14 +585,19 @@ impl Ekf {
         stamp_s + self.state.time_offset_s
     }
 
+    /// The standard deviation of error-state entry `i`.
+    fn sigma(&self, i: usize) -> f64 {
+        self.cov[(i, i)].max(0.0).sqrt()
+    }
+
     /// The time offset's standard deviation, s.
     pub fn time_offset_sigma(&self) -> f64 {
-        self.cov[(TD, TD)].max(0.0).sqrt()
+        self.sigma(TD)
     }
 
     /// The velocity scale's standard deviation.
     pub fn velocity_scale_sigma(&self) -> f64 {
-        self.cov[(SC, SC)].max(0.0).sqrt()
+        self.sigma(SC)
     }
 
     /// The error-state covariance (order δp, δv, δθ, δb_a, δb_g, δt_d, δs).
