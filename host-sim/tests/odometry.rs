@@ -451,6 +451,102 @@ fn initialisation_refuses_a_moving_start() {
 }
 
 #[test]
+fn parameters_out_of_range_are_errors_naming_them_from_either_start() -> TestResult {
+    // The defaults are valid; every bad value is refused by name before the filter runs, from
+    // rest and in motion, and `odometry::run` returns the error instead of a trajectory
+    // (a velocity scale of 0 used to start the moving filter at an infinite velocity).
+    EkfParams::default().validate()?;
+    let exact = EkfParams {
+        time_offset_sigma: 0.0,
+        velocity_scale_sigma: 0.0,
+        velocity_scale_walk: 0.0,
+        accel_bias_walk: 0.0,
+        time_offset_s: -0.02,
+        ..EkfParams::default()
+    };
+    exact.validate()?;
+    let d = EkfParams::default();
+    let cases: [(&str, EkfParams); 7] = [
+        (
+            "velocity_scale",
+            EkfParams {
+                velocity_scale: 0.0,
+                ..d.clone()
+            },
+        ),
+        (
+            "velocity_scale",
+            EkfParams {
+                velocity_scale: f64::INFINITY,
+                ..d.clone()
+            },
+        ),
+        (
+            "init_standstill_s",
+            EkfParams {
+                init_standstill_s: 0.0,
+                ..d.clone()
+            },
+        ),
+        (
+            "accel_noise",
+            EkfParams {
+                accel_noise: f64::NAN,
+                ..d.clone()
+            },
+        ),
+        (
+            "gyro_bias_walk",
+            EkfParams {
+                gyro_bias_walk: -1e-5,
+                ..d.clone()
+            },
+        ),
+        (
+            "time_offset_sigma",
+            EkfParams {
+                time_offset_sigma: -0.05,
+                ..d.clone()
+            },
+        ),
+        (
+            "time_offset_s",
+            EkfParams {
+                time_offset_s: f64::NAN,
+                ..d.clone()
+            },
+        ),
+    ];
+    let scene = hallways();
+    let imu = simulate_imu(&ImuSpec::default(), &scene.sensor, &scene.rig.imu, 43.0, 1);
+    let radar = perfect_radar(&scene, 430, 0.02, 1);
+    let (cut_imu, cut_radar) = cut_walk(&scene, &ImuSpec::default(), 12.0, 1);
+    for (name, params) in cases {
+        let named = |e: &host_sim::odometry::ekf::EkfError| {
+            matches!(e, host_sim::odometry::ekf::EkfError::Param { name: n, .. } if *n == name)
+                && e.to_string().contains(name)
+        };
+        let e = params.validate().err().ok_or("accepted")?;
+        assert!(named(&e), "{name}: {e}");
+        for (imu, frames) in [(&imu, &radar), (&cut_imu, &cut_radar)] {
+            match odometry::run(&params, imu, frames, &scene.rig) {
+                Err(e) => assert!(named(&e), "{name}: {e}"),
+                Ok(_) => return Err(format!("{name}: the filter ran").into()),
+            }
+        }
+        let z = RadarVelocity {
+            time_s: 12.325,
+            velocity: scene.radar_velocity(12.325),
+            covariance: Matrix3::identity() * 1e-4,
+        };
+        let moving =
+            Ekf::initialise_moving(params.clone(), &imu, &z, &scene.rig.radar, &scene.rig.imu);
+        assert!(moving.is_err_and(|e| named(&e)), "{name}");
+    }
+    Ok(())
+}
+
+#[test]
 fn a_moving_start_takes_the_tilt_from_gravity_and_the_velocity_from_the_radar() -> TestResult {
     // 12.325 s into the hallways walk, an ideal IMU, the radar's exact velocity. The start
     // attitude's tilt errs by no more than the rig's mean acceleration over the window tilts

@@ -211,9 +211,86 @@ impl Default for EkfParams {
     }
 }
 
+impl EkfParams {
+    /// Check every parameter: all finite; noise densities, windows, gates, the point noise
+    /// floor and the velocity scale above zero; random walks, start deviations, floors and
+    /// the rest speed not below zero (0 where it means "none" or "exact"). The first
+    /// parameter out of its range is named in [`EkfError::Param`]. [`Ekf::initialise`] and
+    /// [`Ekf::initialise_moving`] call it, so a filter never runs on parameters that would
+    /// give it an infinite start velocity (`velocity_scale` 0), an empty initialisation
+    /// window or a NaN covariance.
+    pub fn validate(&self) -> Result<(), EkfError> {
+        const POSITIVE: &str = "a finite value above 0";
+        const NON_NEGATIVE: &str = "a finite value of at least 0";
+        let positive = [
+            ("accel_noise", self.accel_noise),
+            ("gyro_noise", self.gyro_noise),
+            ("init_standstill_s", self.init_standstill_s),
+            ("init_moving_window_s", self.init_moving_window_s),
+            ("chi2_gate", self.chi2_gate),
+            ("point_sigma_mps", self.point_sigma_mps),
+            ("point_chi2_gate", self.point_chi2_gate),
+            ("velocity_scale", self.velocity_scale),
+        ];
+        let non_negative = [
+            ("accel_bias_walk", self.accel_bias_walk),
+            ("gyro_bias_walk", self.gyro_bias_walk),
+            ("init_accel_bias_sigma", self.init_accel_bias_sigma),
+            ("init_gyro_bias_sigma", self.init_gyro_bias_sigma),
+            ("init_tilt_sigma", self.init_tilt_sigma),
+            ("rest_speed_mps", self.rest_speed_mps),
+            ("widen_after_s", self.widen_after_s),
+            ("init_moving_tilt_sigma", self.init_moving_tilt_sigma),
+            (
+                "init_moving_velocity_sigma",
+                self.init_moving_velocity_sigma,
+            ),
+            (
+                "init_moving_gyro_bias_sigma",
+                self.init_moving_gyro_bias_sigma,
+            ),
+            ("velocity_sigma_floor", self.velocity_sigma_floor),
+            ("point_cross_range_m", self.point_cross_range_m),
+            ("time_offset_sigma", self.time_offset_sigma),
+            ("zero_rate_sigma", self.zero_rate_sigma),
+            ("velocity_scale_sigma", self.velocity_scale_sigma),
+            ("velocity_scale_walk", self.velocity_scale_walk),
+        ];
+        let bad = |name: &'static str, value: f64, expected: &'static str| EkfError::Param {
+            name,
+            value,
+            expected,
+        };
+        for (name, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(bad(name, value, POSITIVE));
+            }
+        }
+        for (name, value) in non_negative {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(bad(name, value, NON_NEGATIVE));
+            }
+        }
+        if !self.time_offset_s.is_finite() {
+            return Err(bad("time_offset_s", self.time_offset_s, "a finite value"));
+        }
+        Ok(())
+    }
+}
+
 /// Why the filter could not run.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum EkfError {
+    /// A parameter is out of its range ([`EkfParams::validate`]).
+    #[error("EKF parameter {name} = {value}: expected {expected}")]
+    Param {
+        /// The field of [`EkfParams`].
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// What it must be.
+        expected: &'static str,
+    },
     /// Not enough IMU data for the initial standstill.
     #[error("the IMU data span {span_s:.3} s; initialisation needs a standstill of {needed_s} s at the start")]
     TooShort {
@@ -419,6 +496,7 @@ impl Ekf {
         radar: &Mount,
         imu_mount: &Mount,
     ) -> Result<(Self, usize), EkfError> {
+        params.validate()?;
         check_times(imu)?;
         let span_s = match (imu.first(), imu.last()) {
             (Some(a), Some(b)) => b.time_s - a.time_s,
@@ -483,6 +561,7 @@ impl Ekf {
         radar: &Mount,
         imu_mount: &Mount,
     ) -> Result<(Self, usize), EkfError> {
+        params.validate()?;
         check_times(imu)?;
         let half = 0.5 * params.init_moving_window_s;
         let window: Vec<ImuSample> = imu
