@@ -8,7 +8,7 @@ use std::sync::OnceLock;
 
 use host_sim::eval::chamfer::{chamfer, voxel_downsample, P3};
 use host_sim::eval::crb::{direction_cosine_crb, omega_crb, SnapshotModel, Source, Unknown};
-use host_sim::eval::scenarios::Pair;
+use host_sim::eval::scenarios::{Pair, SCENES};
 use host_sim::eval::tables::{AZIMUTH_STEP_DEG, EXTENDED_SCENES};
 use host_sim::eval::{names, run_evaluation, write_report, EvalConfig, EvalError, Evaluation};
 use num_complex::Complex64;
@@ -272,8 +272,58 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
         .as_array()
         .ok_or("no conclusions")?;
     assert_eq!(conclusions.len(), 6);
-    // Four point-cloud goals (issue 4), density (issue 10), four odometry goals (issue 9).
-    assert_eq!(json["goals"].as_array().map(Vec::len), Some(9));
+    // Four point-cloud goals (issue 4), the sequence maps' Chamfer and density (issue 10),
+    // four odometry goals (issue 9).
+    let goals = json["goals"].as_array().ok_or("no goals")?;
+    assert_eq!(goals.len(), 10);
+    // The sequence maps' goal, recounted from the rows: cells of the extended scenes where
+    // the DBE value is below the FFT one.
+    let extended: Vec<&str> = SCENES[..EXTENDED_SCENES].iter().map(|s| s.name).collect();
+    let count = |key: &str, dbe: &str, fft: &str| {
+        let rows = json[key].as_array().into_iter().flatten();
+        let ext: Vec<_> = rows
+            .filter(|r| r["scene"].as_str().is_some_and(|s| extended.contains(&s)))
+            .collect();
+        let wins = ext
+            .iter()
+            .filter(|r| matches!((r[dbe].as_f64(), r[fft].as_f64()), (Some(d), Some(f)) if d < f))
+            .count();
+        (wins, ext.len())
+    };
+    let map_goal = goals
+        .iter()
+        .find(|g| {
+            g["goal"]
+                .as_str()
+                .is_some_and(|s| s.contains("sequence maps"))
+        })
+        .ok_or("no sequence-map Chamfer goal")?;
+    let detail = map_goal["detail"].as_str().unwrap_or_default();
+    let mut all = true;
+    for (what, key, dbe, fft, per_scene) in [
+        ("exact poses", "chamfer_paper", "dbe", "fft", taus.len()),
+        (
+            "after ICP",
+            "chamfer_paper",
+            "dbe_icp",
+            "fft_icp",
+            taus.len(),
+        ),
+        (
+            "symmetric distance",
+            "chamfer_map",
+            "dbe",
+            "fft",
+            e.config.resolutions_m.len(),
+        ),
+    ] {
+        let (wins, total) = count(key, dbe, fft);
+        assert_eq!(total, EXTENDED_SCENES * per_scene, "{key}");
+        all &= wins == total;
+        let text = format!("{what}: DBE below FFT in {wins} of {total} cells");
+        assert!(detail.contains(&text), "{text} not in: {detail}");
+    }
+    assert_eq!(map_goal["met"].as_bool(), Some(all), "{detail}");
     assert_eq!(
         json["odometry"].as_array().map(Vec::len),
         Some(host_sim::eval::odometry::SEQUENCES.len() * 3)

@@ -601,3 +601,44 @@ fn readme_crb_ratios_are_the_committed_report() -> TestResult {
     }
     Ok(())
 }
+
+/// README's Chamfer cell counts (the goals: per frame, and on the sequence maps by the paper's
+/// protocol and the symmetric distance) are the committed report's, recounted from its rows.
+#[test]
+fn readme_chamfer_cell_counts_are_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let flat = one_line(&read("README.md")?);
+    // (cells where DBE is below FFT, cells, mean relative difference DBE / FFT − 1) over the
+    // extended scenes' rows of `key`.
+    let count = |key: &str, dbe: &str, fft: &str| -> Result<(usize, usize, f64), String> {
+        let rows: Vec<(f64, f64)> = summary[key]
+            .as_array()
+            .ok_or(format!("summary.json has no {key}"))?
+            .iter()
+            .filter(|r| r["scene"] != "moving_sensor")
+            .map(|r| Ok((num(&r[dbe], dbe)?, num(&r[fft], fft)?)))
+            .collect::<Result<_, String>>()?;
+        let wins = rows.iter().filter(|(d, f)| d < f).count();
+        let rel = rows.iter().map(|(d, f)| d / f - 1.0).sum::<f64>() / rows.len() as f64;
+        Ok((wins, rows.len(), rel))
+    };
+    let (wins, cells, rel) = count("chamfer", "dbe", "fft")?;
+    let sign = if rel < 0.0 { "−" } else { "+" };
+    let frame = format!(
+        "DBE is below FFT in {wins} of {cells} (scene, resolution) cells, {sign}{:.1} % on average",
+        100.0 * rel.abs()
+    );
+    let (exact, t, _) = count("chamfer_paper", "dbe", "fft")?;
+    let (icp, _, _) = count("chamfer_paper", "dbe_icp", "fft_icp")?;
+    let (sym, s, _) = count("chamfer_map", "dbe", "fft")?;
+    let maps = format!(
+        "On the sequence maps DBE is below FFT in {exact} of {t} cells of the paper's CD(τ) with exact poses, {icp} of {t} after ICP, and {sym} of {s} cells of the symmetric distance"
+    );
+    for sentence in [frame, maps] {
+        assert!(
+            flat.contains(&sentence),
+            "README lacks the report's sentence\n{sentence}"
+        );
+    }
+    Ok(())
+}

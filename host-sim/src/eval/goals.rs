@@ -127,7 +127,79 @@ fn fmt_opt(v: Option<f64>, digits: usize) -> String {
     }
 }
 
-/// The issue's goals, evaluated.
+/// Cells (scene, τ or resolution) of the extended scenes where DBE is below FFT, of the
+/// `(dbe, fft)` pairs given, and the scenes with a cell where it is not (`τ`s or resolutions
+/// listed).
+fn map_cells<'a>(
+    rows: impl Iterator<Item = (&'a str, f64, Option<f64>, Option<f64>)>,
+) -> (usize, usize, Vec<String>) {
+    let (mut wins, mut total) = (0, 0);
+    let mut lost: Vec<(String, Vec<f64>)> = Vec::new();
+    for (scene, x, dbe, fft) in rows {
+        if !SCENES[..EXTENDED_SCENES].iter().any(|s| s.name == scene) {
+            continue;
+        }
+        total += 1;
+        if matches!((dbe, fft), (Some(d), Some(f)) if d < f) {
+            wins += 1;
+            continue;
+        }
+        match lost.iter_mut().find(|(s, _)| s == scene) {
+            Some((_, xs)) => xs.push(x),
+            None => lost.push((scene.to_string(), vec![x])),
+        }
+    }
+    let lost = lost
+        .into_iter()
+        .map(|(s, xs)| {
+            let xs: Vec<String> = xs.iter().map(|x| format!("{x}")).collect();
+            format!("{s} ({} m)", xs.join(", "))
+        })
+        .collect();
+    (wins, total, lost)
+}
+
+/// Issue 10's Chamfer goal on sequence maps: every cell of the paper's protocol and of the
+/// symmetric distance on the same maps.
+fn map_chamfer_goal(e: &Evaluation) -> Goal {
+    let paper = |icp: bool| {
+        map_cells(e.chamfer_paper.iter().map(|r| match icp {
+            false => (r.scene.as_str(), r.tau, r.dbe, r.fft),
+            true => (r.scene.as_str(), r.tau, r.dbe_icp, r.fft_icp),
+        }))
+    };
+    let symmetric = map_cells(
+        e.chamfer_map
+            .iter()
+            .map(|r| (r.scene.as_str(), r.resolution, r.dbe, r.fft)),
+    );
+    let parts = [
+        ("the paper's CD(τ), exact poses", paper(false)),
+        ("after ICP", paper(true)),
+        ("the symmetric distance", symmetric),
+    ];
+    let met = parts.iter().all(|(_, (w, t, _))| w == t && *t > 0);
+    let detail = parts
+        .iter()
+        .map(|(what, (w, t, lost))| {
+            let mut d = format!("{what}: DBE below FFT in {w} of {t} cells");
+            if !lost.is_empty() {
+                d.push_str(&format!(" (not: {})", lost.join("; ")));
+            }
+            d
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    Goal {
+        goal: "DBE below FFT in every Chamfer cell on the sequence maps: the paper's protocol (τ) and the symmetric distance (resolution)".into(),
+        met,
+        detail: format!(
+            "{detail}. At small τ the paper's CD(τ) counts how many points lie very close more than how far the rest are (Chamfer section, caveat)"
+        ),
+    }
+}
+
+/// The issue's goals, evaluated./// The issue's goals, evaluated.
 pub(super) fn goals(e: &Evaluation) -> Vec<Goal> {
     let mut out = Vec::new();
 
@@ -240,6 +312,10 @@ pub(super) fn goals(e: &Evaluation) -> Vec<Goal> {
         met,
         detail,
     });
+
+    // 1a. The same comparison on sequence maps (issue 10 §4): the paper's CD(τ), with exact
+    // poses and after ICP, and the symmetric Chamfer distance of the same maps.
+    out.push(map_chamfer_goal(e));
 
     // 1b. Density without false points (issue 10 §1).
     let (pts_dbe, pts_fft) = (
