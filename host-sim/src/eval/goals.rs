@@ -199,7 +199,7 @@ fn map_chamfer_goal(e: &Evaluation) -> Goal {
     }
 }
 
-/// The goals, evaluated./// The goals, evaluated.
+/// The goals, evaluated.
 pub(super) fn goals(e: &Evaluation) -> Vec<Goal> {
     let mut out = Vec::new();
 
