@@ -452,9 +452,10 @@ fn initialisation_refuses_a_moving_start() {
 
 #[test]
 fn parameters_out_of_range_are_errors_naming_them_from_either_start() -> TestResult {
-    // The defaults are valid; every bad value is refused by name before the filter runs, from
-    // rest and in motion, and `odometry::run` returns the error instead of a trajectory
-    // (a velocity scale of 0 used to start the moving filter at an infinite velocity).
+    // The defaults are valid, and so are the settings where 0 or +∞ mean "exact", "none" or
+    // "never"; every bad value is refused by name before the filter runs, from rest and in
+    // motion, and `odometry::run` returns the error instead of a trajectory (a velocity scale
+    // of 0 used to start the moving filter at an infinite velocity).
     EkfParams::default().validate()?;
     let exact = EkfParams {
         time_offset_sigma: 0.0,
@@ -462,11 +463,30 @@ fn parameters_out_of_range_are_errors_naming_them_from_either_start() -> TestRes
         velocity_scale_walk: 0.0,
         accel_bias_walk: 0.0,
         time_offset_s: -0.02,
+        // No gates, never take the radar's motion for motion, never widen.
+        chi2_gate: f64::INFINITY,
+        point_chi2_gate: f64::INFINITY,
+        rest_speed_mps: f64::INFINITY,
+        widen_after_s: f64::INFINITY,
         ..EkfParams::default()
     };
     exact.validate()?;
     let d = EkfParams::default();
-    let cases: [(&str, EkfParams); 7] = [
+    let cases: [(&str, EkfParams); 9] = [
+        (
+            "chi2_gate",
+            EkfParams {
+                chi2_gate: 0.0,
+                ..d.clone()
+            },
+        ),
+        (
+            "rest_speed_mps",
+            EkfParams {
+                rest_speed_mps: f64::NAN,
+                ..d.clone()
+            },
+        ),
         (
             "velocity_scale",
             EkfParams {

@@ -212,67 +212,110 @@ impl Default for EkfParams {
 }
 
 impl EkfParams {
-    /// Check every parameter: all finite; noise densities, windows, gates, the point noise
-    /// floor and the velocity scale above zero; random walks, start deviations, floors and
-    /// the rest speed not below zero (0 where it means "none" or "exact"). The first
-    /// parameter out of its range is named in [`EkfError::Param`]. [`Ekf::initialise`] and
-    /// [`Ekf::initialise_moving`] call it, so a filter never runs on parameters that would
-    /// give it an infinite start velocity (`velocity_scale` 0), an empty initialisation
-    /// window or a NaN covariance.
+    /// Check every parameter. Noise densities, windows, the point noise floor and the
+    /// velocity scale: finite and above zero. Random walks, start deviations and floors:
+    /// finite and not below zero (0 where it means "none" or "exact"). The gates: above zero,
+    /// `+∞` allowed (no gate); the rest speed and the widening delay: not below zero, `+∞`
+    /// allowed (never take the radar's motion for motion; never widen). The time offset:
+    /// finite. The first parameter out of its range is named in [`EkfError::Param`].
+    /// [`Ekf::initialise`] and [`Ekf::initialise_moving`] call it, so a filter never runs on
+    /// parameters that would give it an infinite start velocity (`velocity_scale` 0), an
+    /// empty initialisation window or a NaN covariance.
     pub fn validate(&self) -> Result<(), EkfError> {
-        const POSITIVE: &str = "a finite value above 0";
-        const NON_NEGATIVE: &str = "a finite value of at least 0";
-        let positive = [
-            ("accel_noise", self.accel_noise),
-            ("gyro_noise", self.gyro_noise),
-            ("init_standstill_s", self.init_standstill_s),
-            ("init_moving_window_s", self.init_moving_window_s),
-            ("chi2_gate", self.chi2_gate),
-            ("point_sigma_mps", self.point_sigma_mps),
-            ("point_chi2_gate", self.point_chi2_gate),
-            ("velocity_scale", self.velocity_scale),
-        ];
-        let non_negative = [
-            ("accel_bias_walk", self.accel_bias_walk),
-            ("gyro_bias_walk", self.gyro_bias_walk),
-            ("init_accel_bias_sigma", self.init_accel_bias_sigma),
-            ("init_gyro_bias_sigma", self.init_gyro_bias_sigma),
-            ("init_tilt_sigma", self.init_tilt_sigma),
-            ("rest_speed_mps", self.rest_speed_mps),
-            ("widen_after_s", self.widen_after_s),
-            ("init_moving_tilt_sigma", self.init_moving_tilt_sigma),
+        // (name, value, 0 allowed, +∞ allowed)
+        let checks = [
+            ("accel_noise", self.accel_noise, false, false),
+            ("gyro_noise", self.gyro_noise, false, false),
+            ("init_standstill_s", self.init_standstill_s, false, false),
+            (
+                "init_moving_window_s",
+                self.init_moving_window_s,
+                false,
+                false,
+            ),
+            ("point_sigma_mps", self.point_sigma_mps, false, false),
+            ("velocity_scale", self.velocity_scale, false, false),
+            ("chi2_gate", self.chi2_gate, false, true),
+            ("point_chi2_gate", self.point_chi2_gate, false, true),
+            ("rest_speed_mps", self.rest_speed_mps, true, true),
+            ("widen_after_s", self.widen_after_s, true, true),
+            ("accel_bias_walk", self.accel_bias_walk, true, false),
+            ("gyro_bias_walk", self.gyro_bias_walk, true, false),
+            (
+                "init_accel_bias_sigma",
+                self.init_accel_bias_sigma,
+                true,
+                false,
+            ),
+            (
+                "init_gyro_bias_sigma",
+                self.init_gyro_bias_sigma,
+                true,
+                false,
+            ),
+            ("init_tilt_sigma", self.init_tilt_sigma, true, false),
+            (
+                "init_moving_tilt_sigma",
+                self.init_moving_tilt_sigma,
+                true,
+                false,
+            ),
             (
                 "init_moving_velocity_sigma",
                 self.init_moving_velocity_sigma,
+                true,
+                false,
             ),
             (
                 "init_moving_gyro_bias_sigma",
                 self.init_moving_gyro_bias_sigma,
+                true,
+                false,
             ),
-            ("velocity_sigma_floor", self.velocity_sigma_floor),
-            ("point_cross_range_m", self.point_cross_range_m),
-            ("time_offset_sigma", self.time_offset_sigma),
-            ("zero_rate_sigma", self.zero_rate_sigma),
-            ("velocity_scale_sigma", self.velocity_scale_sigma),
-            ("velocity_scale_walk", self.velocity_scale_walk),
+            (
+                "velocity_sigma_floor",
+                self.velocity_sigma_floor,
+                true,
+                false,
+            ),
+            ("point_cross_range_m", self.point_cross_range_m, true, false),
+            ("time_offset_sigma", self.time_offset_sigma, true, false),
+            ("zero_rate_sigma", self.zero_rate_sigma, true, false),
+            (
+                "velocity_scale_sigma",
+                self.velocity_scale_sigma,
+                true,
+                false,
+            ),
+            ("velocity_scale_walk", self.velocity_scale_walk, true, false),
         ];
-        let bad = |name: &'static str, value: f64, expected: &'static str| EkfError::Param {
-            name,
-            value,
-            expected,
-        };
-        for (name, value) in positive {
-            if !(value.is_finite() && value > 0.0) {
-                return Err(bad(name, value, POSITIVE));
-            }
-        }
-        for (name, value) in non_negative {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(bad(name, value, NON_NEGATIVE));
+        for (name, value, zero, infinite) in checks {
+            let ok = match (zero, infinite) {
+                (false, false) => value.is_finite() && value > 0.0,
+                (false, true) => value > 0.0,
+                (true, false) => value.is_finite() && value >= 0.0,
+                (true, true) => value >= 0.0,
+            };
+            if !ok {
+                let expected = match (zero, infinite) {
+                    (false, false) => "a finite value above 0",
+                    (false, true) => "a value above 0 (+inf: none)",
+                    (true, false) => "a finite value of at least 0",
+                    (true, true) => "a value of at least 0 (+inf: never)",
+                };
+                return Err(EkfError::Param {
+                    name,
+                    value,
+                    expected,
+                });
             }
         }
         if !self.time_offset_s.is_finite() {
-            return Err(bad("time_offset_s", self.time_offset_s, "a finite value"));
+            return Err(EkfError::Param {
+                name: "time_offset_s",
+                value: self.time_offset_s,
+                expected: "a finite value",
+            });
         }
         Ok(())
     }
