@@ -211,6 +211,43 @@ impl Default for EkfParams {
     }
 }
 
+/// The range an [`EkfParams`] field must lie in ([`EkfParams::validate`]).
+#[derive(Clone, Copy)]
+enum Range {
+    /// Finite, above 0.
+    Positive,
+    /// Above 0, `+∞` allowed (a gate: `+∞` is none).
+    Gate,
+    /// Finite, at least 0 (0: none or exact).
+    NonNegative,
+    /// At least 0, `+∞` allowed (never).
+    NonNegativeOrNever,
+    /// Finite.
+    Finite,
+}
+
+impl Range {
+    fn admits(self, v: f64) -> bool {
+        match self {
+            Self::Positive => v.is_finite() && v > 0.0,
+            Self::Gate => v > 0.0,
+            Self::NonNegative => v.is_finite() && v >= 0.0,
+            Self::NonNegativeOrNever => v >= 0.0,
+            Self::Finite => v.is_finite(),
+        }
+    }
+
+    fn expected(self) -> &'static str {
+        match self {
+            Self::Positive => "a finite value above 0",
+            Self::Gate => "a value above 0 (+inf: none)",
+            Self::NonNegative => "a finite value of at least 0",
+            Self::NonNegativeOrNever => "a value of at least 0 (+inf: never)",
+            Self::Finite => "a finite value",
+        }
+    }
+}
+
 impl EkfParams {
     /// Check every parameter. Noise densities, windows, the point noise floor and the
     /// velocity scale: finite and above zero. Random walks, start deviations and floors:
@@ -222,102 +259,70 @@ impl EkfParams {
     /// parameters that would give it an infinite start velocity (`velocity_scale` 0), an
     /// empty initialisation window or a NaN covariance.
     pub fn validate(&self) -> Result<(), EkfError> {
-        // (name, value, 0 allowed, +∞ allowed)
+        use Range::*;
         let checks = [
-            ("accel_noise", self.accel_noise, false, false),
-            ("gyro_noise", self.gyro_noise, false, false),
-            ("init_standstill_s", self.init_standstill_s, false, false),
-            (
-                "init_moving_window_s",
-                self.init_moving_window_s,
-                false,
-                false,
-            ),
-            ("point_sigma_mps", self.point_sigma_mps, false, false),
-            ("velocity_scale", self.velocity_scale, false, false),
-            ("chi2_gate", self.chi2_gate, false, true),
-            ("point_chi2_gate", self.point_chi2_gate, false, true),
-            ("rest_speed_mps", self.rest_speed_mps, true, true),
-            ("widen_after_s", self.widen_after_s, true, true),
-            ("accel_bias_walk", self.accel_bias_walk, true, false),
-            ("gyro_bias_walk", self.gyro_bias_walk, true, false),
+            ("accel_noise", self.accel_noise, Positive),
+            ("gyro_noise", self.gyro_noise, Positive),
+            ("init_standstill_s", self.init_standstill_s, Positive),
+            ("init_moving_window_s", self.init_moving_window_s, Positive),
+            ("point_sigma_mps", self.point_sigma_mps, Positive),
+            ("velocity_scale", self.velocity_scale, Positive),
+            ("chi2_gate", self.chi2_gate, Gate),
+            ("point_chi2_gate", self.point_chi2_gate, Gate),
+            ("rest_speed_mps", self.rest_speed_mps, NonNegativeOrNever),
+            ("widen_after_s", self.widen_after_s, NonNegativeOrNever),
+            ("accel_bias_walk", self.accel_bias_walk, NonNegative),
+            ("gyro_bias_walk", self.gyro_bias_walk, NonNegative),
             (
                 "init_accel_bias_sigma",
                 self.init_accel_bias_sigma,
-                true,
-                false,
+                NonNegative,
             ),
             (
                 "init_gyro_bias_sigma",
                 self.init_gyro_bias_sigma,
-                true,
-                false,
+                NonNegative,
             ),
-            ("init_tilt_sigma", self.init_tilt_sigma, true, false),
+            ("init_tilt_sigma", self.init_tilt_sigma, NonNegative),
             (
                 "init_moving_tilt_sigma",
                 self.init_moving_tilt_sigma,
-                true,
-                false,
+                NonNegative,
             ),
             (
                 "init_moving_velocity_sigma",
                 self.init_moving_velocity_sigma,
-                true,
-                false,
+                NonNegative,
             ),
             (
                 "init_moving_gyro_bias_sigma",
                 self.init_moving_gyro_bias_sigma,
-                true,
-                false,
+                NonNegative,
             ),
             (
                 "velocity_sigma_floor",
                 self.velocity_sigma_floor,
-                true,
-                false,
+                NonNegative,
             ),
-            ("point_cross_range_m", self.point_cross_range_m, true, false),
-            ("time_offset_sigma", self.time_offset_sigma, true, false),
-            ("zero_rate_sigma", self.zero_rate_sigma, true, false),
+            ("point_cross_range_m", self.point_cross_range_m, NonNegative),
+            ("time_offset_sigma", self.time_offset_sigma, NonNegative),
+            ("zero_rate_sigma", self.zero_rate_sigma, NonNegative),
             (
                 "velocity_scale_sigma",
                 self.velocity_scale_sigma,
-                true,
-                false,
+                NonNegative,
             ),
-            ("velocity_scale_walk", self.velocity_scale_walk, true, false),
+            ("velocity_scale_walk", self.velocity_scale_walk, NonNegative),
+            ("time_offset_s", self.time_offset_s, Finite),
         ];
-        for (name, value, zero, infinite) in checks {
-            let ok = match (zero, infinite) {
-                (false, false) => value.is_finite() && value > 0.0,
-                (false, true) => value > 0.0,
-                (true, false) => value.is_finite() && value >= 0.0,
-                (true, true) => value >= 0.0,
-            };
-            if !ok {
-                let expected = match (zero, infinite) {
-                    (false, false) => "a finite value above 0",
-                    (false, true) => "a value above 0 (+inf: none)",
-                    (true, false) => "a finite value of at least 0",
-                    (true, true) => "a value of at least 0 (+inf: never)",
-                };
-                return Err(EkfError::Param {
-                    name,
-                    value,
-                    expected,
-                });
-            }
+        match checks.into_iter().find(|&(_, v, range)| !range.admits(v)) {
+            Some((name, value, range)) => Err(EkfError::Param {
+                name,
+                value,
+                expected: range.expected(),
+            }),
+            None => Ok(()),
         }
-        if !self.time_offset_s.is_finite() {
-            return Err(EkfError::Param {
-                name: "time_offset_s",
-                value: self.time_offset_s,
-                expected: "a finite value",
-            });
-        }
-        Ok(())
     }
 }
 
