@@ -162,15 +162,15 @@ pub struct Params {
     /// Ring split (see [`crate::ring`]): a point at the horizon whose elevation row sees it
     /// clearly weaker than its azimuth line does, on its own Doppler bin, is the two returns
     /// of a vertical surface's range ring, above and below the radar: it becomes two points
-    /// at its elevation ± the pair's half-separation. Only on an array with an elevation
+    /// at ± the pair's half-separation about the horizon. Only on an array with an elevation
     /// row, and not for the points of a coherent pair (their sub-array has its own elevation
     /// fit). Off by default and in the paper's chain: measured by `dbe eval` it serves the
-    /// ego-velocity (odometry section, `dbe[ring split = on]` rows: the static points'
-    /// *v_r scale* from 0.986 to 0.991 on the outdoors sequence, XYZ drift 2.98 → 1.10 %
-    /// there, but 0.23 → 0.40 % on aspen and 0.36 → 0.48 % on army) and costs the point
-    /// cloud (defaults sweep: false points per scene frame 0.86 → 1.26, Chamfer distance
-    /// 0.959 → 0.967 m), because one complex ratio cannot tell a pair's separation from its
-    /// phase. On real boards it needs the elevation row's gain matched to the line's
+    /// ego-velocity (odometry section, `dbe[ring split = on]` rows against `dbe`: the static
+    /// points' *v_r scale* from 0.987 to 0.992 on the outdoors sequence, XYZ drift
+    /// 1.56 → 1.06 % there, 0.49 → 0.39 % on hallways, 0.17 → 0.13 % on aspen, 0.31 % on army
+    /// either way) and costs the point cloud (defaults sweep: false points per scene frame
+    /// 0.86 → 1.29, Chamfer distance 0.959 → 0.968 m), because one complex ratio cannot tell
+    /// a pair's separation from its phase. On real boards it needs the elevation row's gain matched to the line's
     /// ([`crate::ring`], "Real arrays").
     pub ring_split: bool,
     /// Azimuth grid: first and last angle, degrees (the grid size is a const generic).
@@ -1100,7 +1100,8 @@ impl<
                 true => self.ring_half(snap, &rot, fractional, mu),
                 false => None,
             };
-            let pair = half.map(|h| [nu - h, nu + h]);
+            // About the horizon, where a ring's two returns sit (`crate::ring`, "Centre").
+            let pair = half.map(|h| [-h, h]);
             let at = |nu: f32| {
                 let span = self.params.elevation_span_deg;
                 Point::at(range, mu, nu).map(|p| (p, elevation::nearest_bin::<NEL>(nu, span)))

@@ -216,11 +216,13 @@ fn coherent_pair_in_one_range_bin_gets_azimuth_and_elevation() {
     );
 }
 
-/// A vertical surface's range ring (`Params::ring_split`, off by default): two equal returns
-/// at one range, azimuth and radial velocity, ±`el` about the horizon. In phase, the ring
-/// split gives a point within the elevation tolerance of each (its `|c|` is exactly
-/// `cos κΔδ`); without it the chain reports one point at the horizon. With it, a single
-/// target at any elevation is still one point.
+/// A vertical surface's range ring (`Params::ring_split`, off by default): two returns at one
+/// range, azimuth and radial velocity, ±`el` about the horizon, equal or the lower 4 dB
+/// weaker. In phase, the ring split gives a point within the elevation tolerance of each (its
+/// `Re c` is exactly `cos κΔδ`, and the pair is split about the horizon, not about the
+/// elevation stage's estimate, which the stronger return pulls towards itself); without it
+/// the chain reports one point near the horizon. With it, a single target at any elevation
+/// is still one point.
 #[test]
 fn an_in_phase_ring_pair_is_split_into_its_two_heights() {
     let (range, az, v) = (7.3, 35.0, 1.2);
@@ -228,10 +230,10 @@ fn an_in_phase_ring_pair_is_split_into_its_two_heights() {
         ring_split: true,
         ..Params::defaults(p::SAMPLES)
     };
-    for el in [9.0, 13.0] {
+    for (el, lower_db) in [(9.0, 40.0), (13.0, 40.0), (11.0, 36.0)] {
         let ts = [
             Target::polar(range, az, el, v, 40.0),
-            Target::polar(range, az, -el, v, 40.0),
+            Target::polar(range, az, -el, v, lower_db),
         ];
         let phases = [0.4, 0.4];
         let r = run_phased(&ts, Some(&phases), 20.0, 31, on);

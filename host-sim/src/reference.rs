@@ -1891,7 +1891,7 @@ fn resolve(
             false => None,
         };
         let nus = match half {
-            Some(h) => vec![nu_point - h, nu_point + h],
+            Some(h) => vec![-h, h],
             None => vec![nu_point],
         };
         for nu_point in nus {
@@ -1929,7 +1929,7 @@ fn resolve(
 /// fractional Doppler `doppler` (bins), de-steered to its azimuth `mu`; `c` = the elevation
 /// row's mean over the line's; a ring pair when `|c| ≤ ring::MAX_RATIO`,
 /// `1 − |c| ≥ ring::SIGMAS·σ_c` and `|arg c| ≤ ring::HORIZON_PHASE`, with half-separation
-/// `acos|c| / (κ·Δ)` in `ν`. Notes the margin of each of the three tests.
+/// `acos(Re c) / (κ·Δ)` in `ν` about the horizon. Notes the margin of each of the three tests.
 fn ring_half(
     setup: &Setup,
     x: &DMatrix<Complex64>,
@@ -1978,7 +1978,7 @@ fn ring_half(
     margin.note(horizon, horizon_max);
     let kd = (setup.kappa * setup.array.row_offset()).abs();
     let accept = size <= max && 1.0 - size >= sigmas * sigma && horizon <= horizon_max && kd > 0.0;
-    accept.then(|| size.acos() / kd)
+    accept.then(|| c.re.acos() / kd)
 }
 
 /// Beyond the spec, `Params::joint_elevation` (core module [`dbe_radar::joint`]): range bin by

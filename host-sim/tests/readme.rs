@@ -277,6 +277,28 @@ fn readme_odometry_table_is_the_committed_report() -> TestResult {
     Ok(())
 }
 
+/// README's ring split bullet quotes the report's odometry rows with and without the split.
+#[test]
+fn readme_ring_split_figures_are_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let readme = one_line(&read("README.md")?);
+    let ring = "dbe[ring split = on]";
+    let drift = |r: &Value| num(&r["drift"]["xyz_pct"], "drift");
+    let ego_z = |r: &Value| num(&r["ego_rmse_mps"][2], "RMSE z");
+    let text = format!(
+        "XYZ drift goes from {} % to {} % and its vertical ego-velocity RMSE from {} to {} m/s",
+        odometry_column(&summary, "dbe", 2, &drift)?,
+        odometry_column(&summary, ring, 2, &drift)?,
+        odometry_column(&summary, "dbe", 3, &ego_z)?,
+        odometry_column(&summary, ring, 3, &ego_z)?,
+    );
+    assert!(
+        readme.contains(&text),
+        "README lacks the report's ring split figures\n{text}"
+    );
+    Ok(())
+}
+
 /// README's paragraph on the filter's point updates quotes the report's ablation for every
 /// row that had any, and its verdict per sequence (less drift than FFT, within the seeds'
 /// spread, or more) is the report's.
