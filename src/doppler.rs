@@ -99,6 +99,33 @@ pub fn peak_to_median<const K: usize>(spectrum: &[Complex32; K], peak: f32) -> f
     }
 }
 
+/// `peak_to_median(spectrum, peak) >= min_ratio`, exactly, without sorting: the test
+/// `r(p) = peak / p ≥ min_ratio` (`r` = ∞ for `p` = 0, as for a zero median) holds for the
+/// median exactly when it holds for more than `K/2` bins, since `r` never increases with `p`
+/// (`f32` division is monotone), so the bins that pass are the smallest. A count instead of
+/// a selection over `K` powers per detection (on the Cortex-M4F a quickselect of 128 values);
+/// a NaN power (which the ordering of the selection places by its sign bit) takes the
+/// selection itself.
+pub fn passes_peak_to_median<const K: usize>(
+    spectrum: &[Complex32; K],
+    peak: f32,
+    min_ratio: f32,
+) -> bool {
+    let mut passing = 0usize;
+    for v in spectrum.iter() {
+        let p = v.norm_sqr();
+        if p.is_nan() {
+            return peak_to_median(spectrum, peak) >= min_ratio;
+        }
+        let ratio = if p > 0.0 { peak / p } else { f32::INFINITY };
+        passing += usize::from(ratio >= min_ratio);
+    }
+    match K {
+        0 => f32::INFINITY >= min_ratio,
+        _ => passing > K / 2,
+    }
+}
+
 /// Signed Doppler bin of FFT bin `d`.
 pub const fn signed_bin<const K: usize>(d: usize) -> i16 {
     if d < K / 2 {
@@ -139,6 +166,58 @@ mod tests {
         // All zero: infinite, so a beam is never rejected for want of a median.
         let zero = [Complex32::new(0.0, 0.0); K];
         assert_eq!(peak_to_median(&zero, 0.0), f32::INFINITY);
+    }
+
+    /// The count gives the selection's verdict bit for bit: random spectra with ties, zeros,
+    /// infinities and NaNs, thresholds at, between and beyond their ratios.
+    #[test]
+    fn the_counting_test_is_the_median_test() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let values = [
+            0.0,
+            -0.0,
+            1.0,
+            2.0,
+            0.5,
+            f32::INFINITY,
+            f32::NAN,
+            1e-30,
+            3.0e30,
+        ];
+        let mut checked = [0usize; 2];
+        for trial in 0..20_000 {
+            let pick = |rng: &mut rand::rngs::StdRng| match rng.gen_range(0..4) {
+                0 => values[rng.gen_range(0..values.len())],
+                _ => rng.gen_range(-2.0f32..2.0),
+            };
+            let spectrum: [Complex32; 8] = core::array::from_fn(|_| match trial % 3 {
+                // Few distinct values, zero among them: ties at the median.
+                0 => Complex32::new(values[rng.gen_range(0..5)], 0.0),
+                _ => Complex32::new(pick(&mut rng), pick(&mut rng)),
+            });
+            let peak = match rng.gen_range(0..5) {
+                0 => values[rng.gen_range(0..values.len())],
+                _ => spectrum.iter().map(|v| v.norm_sqr()).fold(0.0, f32::max),
+            };
+            let ratio = peak_to_median(&spectrum, peak);
+            let min_ratio = match rng.gen_range(0..4) {
+                0 => ratio,
+                1 => values[rng.gen_range(0..values.len())],
+                _ => rng.gen_range(0.0f32..8.0),
+            };
+            let want = ratio >= min_ratio;
+            assert_eq!(
+                passes_peak_to_median(&spectrum, peak, min_ratio),
+                want,
+                "{spectrum:?} peak {peak} min_ratio {min_ratio} ratio {ratio}"
+            );
+            checked[usize::from(want)] += 1;
+        }
+        assert!(checked[0] > 2_000 && checked[1] > 2_000, "{checked:?}");
+        // A silent beam (all zero, peak 0): an infinite ratio, as the zero median gives.
+        let zero = [Complex32::new(0.0, 0.0); 8];
+        assert!(passes_peak_to_median(&zero, 0.0, 15.85));
     }
 
     /// A noise-free tone between bins: under the rectangular window the corrected Jacobsen

@@ -33,7 +33,7 @@ use crate::covariance::{
     Matrix,
 };
 use crate::cube::{Frame, Snapshots};
-use crate::doppler::{doppler_peak, peak_to_median};
+use crate::doppler::{doppler_peak, passes_peak_to_median};
 use crate::elevation::{self, ElevationParams};
 use crate::frontend::Frontend;
 use crate::joint::{self, Source, MAX_SOURCES, NEIGHBOUR_BINS, SWEEPS};
@@ -673,16 +673,20 @@ impl<
                 rows: &*block,
                 factor,
             };
-            for (d, det) in dopplers.iter_mut().zip(group) {
+            // The TDM compensation of the run's last tested detection, which its resolution
+            // below repeats otherwise (most runs hold one detection).
+            let mut last: Option<(usize, Compensation<M, AZ>)> = None;
+            for (n, (d, det)) in dopplers.iter_mut().zip(group).enumerate() {
                 let i = usize::from(det.column);
                 *d = match need_doppler {
                     true => match self.beam_doppler(&cov, &bin, i) {
-                        // A failed Doppler test: −∞ (never coherent, no point).
-                        Some(d)
-                            if test > 0.0
-                                && !(self.doppler_ratio(&cov, &bin, d, i) >= min_ratio) =>
-                        {
-                            f32::NEG_INFINITY
+                        Some(d) if test > 0.0 => {
+                            let kept = (n, &mut last);
+                            // A failed Doppler test: −∞ (never coherent, no point).
+                            match self.doppler_test(&cov, &bin, d, i, min_ratio, kept) {
+                                true => d,
+                                false => f32::NEG_INFINITY,
+                            }
                         }
                         Some(d) => d,
                         None => f32::NAN,
@@ -711,9 +715,17 @@ impl<
                     }
                     None => 1,
                 };
+                // A split detection is compensated at its own azimuths.
+                let known = match (count, &last) {
+                    (1, Some((m, c))) if *m == n => Some(c),
+                    _ => None,
+                };
                 for (d, coherent, at_mu) in &targets[..count] {
                     let doppler = dopplers[n];
-                    self.resolve_detection(d, doppler, *coherent, *at_mu, &bin, &cov, ra, out);
+                    let (snap, cov) = (&bin, &cov);
+                    self.resolve_detection(
+                        d, doppler, known, *coherent, *at_mu, snap, cov, ra, out,
+                    );
                 }
                 if out.stats.points + out.stats.point_overflow == before {
                     out.stats.detections_without_point += 1;
@@ -872,36 +884,45 @@ impl<
         Some(f32::from(peak.bin) + peak.offset)
     }
 
-    /// The Doppler test's statistic ([`Params::doppler_test_db`]) of the detection at azimuth
-    /// bin `i` whose beam Doppler is `d`: the peak-to-median ratio of the Doppler spectrum of
-    /// its azimuth Capon beam, after TDM compensation by `d` and the climb to the compensated
-    /// peak when compensation is on. (Uncompensated, the beam of a target moving at 1.6 m/s
-    /// is steered where the target's slot phases do not point, and MVDR cancels it.) ∞ when
-    /// the compensated covariance is not positive definite: the test rejects only what it
-    /// measured.
-    fn doppler_ratio(&self, cov: &Matrix<M>, snap: &BinRows<'_, K, M>, d: f32, i: usize) -> f32 {
+    /// The Doppler test ([`Params::doppler_test_db`]) of the detection at azimuth bin `i` whose
+    /// beam Doppler is `d`: whether the peak-to-median ratio of the Doppler spectrum of its
+    /// azimuth Capon beam, after TDM compensation by `d` and the climb to the compensated peak
+    /// when compensation is on, reaches `min_ratio`. (Uncompensated, the beam of a target
+    /// moving at 1.6 m/s is steered where the target's slot phases do not point, and MVDR
+    /// cancels it.) Passed when the compensated covariance is not positive definite: the test
+    /// rejects only what it measured.
+    fn doppler_test(
+        &self,
+        cov: &Matrix<M>,
+        snap: &BinRows<'_, K, M>,
+        d: f32,
+        i: usize,
+        min_ratio: f32,
+        (n, kept): (usize, &mut Option<(usize, Compensation<M, AZ>)>),
+    ) -> bool {
+        let uncompensated;
         let (rot, i, line) = match self.params.tdm_compensation {
             true => {
                 // The climb's solver of the compensated line serves the beam too.
                 let mut r = *cov;
-                let c = self.compensate_tdm(&mut r, d, i);
-                (c.rotation, c.azimuth_bin, c.line)
+                let (_, c) = kept.insert((n, self.compensate_tdm(&mut r, d, i)));
+                (&c.rotation, c.azimuth_bin, &c.line)
             }
-            false => (
-                [ONE; M],
-                i,
-                self.azimuth_capon(&leading_block(cov))
-                    .map(|(az, _, n)| (az, n)),
-            ),
+            false => {
+                uncompensated = self
+                    .azimuth_capon(&leading_block(cov))
+                    .map(|(az, _, n)| (az, n));
+                (&[ONE; M], i, &uncompensated)
+            }
         };
         let (Some((az, n)), Some(steer)) = (line, self.az_steer.get(i)) else {
-            return f32::INFINITY;
+            return true;
         };
-        let w = az.weight(&Self::line_part(steer, n));
+        let w = az.weight(&Self::line_part(steer, *n));
         let mut y = [ZERO; K];
-        beamform(&w, snap, &azimuth_part::<M, AZ>(&rot), &mut y);
+        beamform(&w, snap, &azimuth_part::<M, AZ>(rot), &mut y);
         let peak = doppler_peak(&mut y, &self.doppler_window);
-        peak_to_median(&y, peak.power)
+        passes_peak_to_median(&y, peak.power, min_ratio)
     }
 
     /// Whether a point's Doppler `d` (bins, with its sub-bin offset) lies within
@@ -953,12 +974,14 @@ impl<
     /// Elevation, Doppler and points of one detection whose azimuth beam has Doppler
     /// `beam_doppler` (bins), on the full array or, when `coherent`, on the FB-averaged
     /// centro-symmetric sub-array; `at_mu`: the azimuth of a split detection
-    /// ([`Params::coherent_split`]), kept as it is (no climb, no sub-grid refinement).
+    /// ([`Params::coherent_split`]), kept as it is (no climb, no sub-grid refinement);
+    /// `known`: its TDM compensation when the Doppler test has computed it.
     #[allow(clippy::too_many_arguments)] // one call site; the stages' inputs, spelled out
     fn resolve_detection<const P: usize>(
         &self,
         det: &Detection,
         beam_doppler: f32,
+        known: Option<&Compensation<M, AZ>>,
         coherent: bool,
         at_mu: Option<f32>,
         snap: &BinRows<'_, K, M>,
@@ -989,7 +1012,14 @@ impl<
             if !beam_doppler.is_finite() {
                 return;
             }
-            let c = self.compensate_tdm(&mut r, beam_doppler, i);
+            let c = match known {
+                // The Doppler test's: the same covariance, Doppler and bin.
+                Some(c) if usize::from(det.column) == i => {
+                    rotate_rows(&mut r, &c.rotation);
+                    Compensation { ..*c }
+                }
+                _ => self.compensate_tdm(&mut r, beam_doppler, i),
+            };
             rot = c.rotation;
             // A split detection keeps its fitted azimuth: the compensated spectrum's climb
             // would lead it back to the merged peak.

@@ -68,10 +68,12 @@ pub fn split_line_from<const D: usize>(
         return None;
     }
     let (v, l1) = principal(r, start, None)?;
-    let (_, l2) = principal(r, start, Some(&v)).unwrap_or(([ZERO; D], 0.0));
-    if !(l1 > 0.0 && l2 < RANK_RATIO * l1) {
+    if !(l1 > 0.0) {
         return None;
     }
+    // The tests on `v` before the deflated iterations that measure `λ₂` (one source, or an
+    // extended surface's mixture, fails them): the result is the conjunction of the same
+    // pure tests in any order, and the rank test costs as much as all the others together.
     let z = prediction_roots(&v)?;
     if z.iter()
         .any(|z| !((z.norm() - 1.0).abs() <= ROOT_TOLERANCE))
@@ -85,9 +87,11 @@ pub fn split_line_from<const D: usize>(
         return None;
     }
     let mu = z.map(|z| -libm::atan2f(z.im, z.re) / k);
-    mu.iter()
-        .all(|m| m.is_finite() && m.abs() < 1.0)
-        .then_some(mu)
+    if !mu.iter().all(|m| m.is_finite() && m.abs() < 1.0) {
+        return None;
+    }
+    let (_, l2) = principal(r, start, Some(&v)).unwrap_or(([ZERO; D], 0.0));
+    (l2 < RANK_RATIO * l1).then_some(mu)
 }
 
 /// A necessary condition of `λ₂ < RANK_RATIO·λ₁`, in `D²` multiply–adds instead of power
