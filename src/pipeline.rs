@@ -1016,7 +1016,7 @@ impl<
                 // The Doppler test's: the same covariance, Doppler and bin.
                 Some(c) if usize::from(det.column) == i => {
                     rotate_rows(&mut r, &c.rotation);
-                    Compensation { ..*c }
+                    *c
                 }
                 _ => self.compensate_tdm(&mut r, beam_doppler, i),
             };
@@ -1300,6 +1300,7 @@ fn range_and_mu(p: &Point) -> Option<(f32, f32)> {
 }
 
 /// What TDM compensation decided for one detection.
+#[derive(Clone, Copy)]
 struct Compensation<const M: usize, const AZ: usize> {
     /// Per-row rotation applied to the covariance (and to the slow time before Doppler).
     rotation: [Complex32; M],
