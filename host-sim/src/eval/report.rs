@@ -1076,7 +1076,7 @@ fn time_offset_paragraph(m: &mut String, e: &Evaluation) {
          zero-rate updates of the second at rest after the start have measured the gyro bias \
          too well for the filter to take those errors for a bias, so the offset costs these \
          sequences little. Where nothing pins the bias down (no standstill), 50 ms turn the \
-         whole path: the simulated hallways walk drifts 1.6–2.0 % instead of 0.1–0.7 % \
+         whole path: the simulated hallways walk drifts 1.9–2.2 % instead of 0.1–0.8 % \
          (`host-sim/tests/odometry.rs`, the time-offset test).\n",
         exact.0 * 1e3,
         exact.1 * 1e3,
