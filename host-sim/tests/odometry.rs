@@ -152,6 +152,17 @@ fn an_ideal_imu_at_rest_measures_gravity_in_its_own_frame() {
     }
 }
 
+/// An ideal IMU at `rate_hz` along the whole 43 s of `scene`'s walk.
+fn ideal_walk_imu(scene: &Scene, rate_hz: f64) -> Vec<ImuSample> {
+    simulate_imu(
+        &ImuSpec::ideal(rate_hz),
+        &scene.sensor,
+        &scene.rig.imu,
+        43.0,
+        1,
+    )
+}
+
 #[test]
 fn an_ideal_imus_samples_integrate_to_the_true_velocity() -> TestResult {
     // The filter's propagation alone (no radar), from its rest initialisation, along the
@@ -164,13 +175,7 @@ fn an_ideal_imus_samples_integrate_to_the_true_velocity() -> TestResult {
     // mm/s after 20–29 s (both twice as large at 100 Hz as at 200 Hz: first-order errors).
     let scene = hallways();
     for rate in [100.0, 200.0] {
-        let imu = simulate_imu(
-            &ImuSpec::ideal(rate),
-            &scene.sensor,
-            &scene.rig.imu,
-            43.0,
-            1,
-        );
+        let imu = ideal_walk_imu(&scene, rate);
         let (mut ekf, mut next) =
             Ekf::initialise(EkfParams::default(), &imu, &scene.rig.radar, &scene.rig.imu)?;
         for t in [3.3, 10.3, 20.7, 29.3, 38.9] {
@@ -1030,13 +1035,7 @@ fn an_ideal_imu_and_exact_velocities_show_the_true_time_offset() -> TestResult {
     // −4.9 and −2.5 ms off.
     let scene = hallways();
     for rate in [100.0, 200.0] {
-        let imu = simulate_imu(
-            &ImuSpec::ideal(rate),
-            &scene.sensor,
-            &scene.rig.imu,
-            43.0,
-            1,
-        );
+        let imu = ideal_walk_imu(&scene, rate);
         for truth_td in [0.0, 0.05] {
             let mut radar = perfect_radar(&scene, 430, 0.0, 1);
             for f in &mut radar {
