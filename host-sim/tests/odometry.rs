@@ -1322,9 +1322,14 @@ fn the_lever_arm_is_in_the_ego_velocity_truth() {
 /// 21 point scatterers, each alone in its range bin (2–12 m, 0.5 m apart), azimuths −60…60°,
 /// elevations within ±12°, seen from a sensor moving at 1.5 m/s.
 fn isolated_points_scene() -> Scene {
-    let mut text = String::from(
+    isolated_points_at(1.5)
+}
+
+/// [`isolated_points_scene`] with the sensor moving forward at `speed_mps`.
+fn isolated_points_at(speed_mps: f64) -> Scene {
+    let mut text = format!(
         "name = \"isolated_points\"\ndescription = \"point scatterers, one per range bin\"\n\
-         seed = 5\nnoise_std = 8.0\n\n[sensor]\nposition = [0.0, 0.0, 0.0]\nvelocity = [1.5, 0.0, 0.0]\n",
+         seed = 5\nnoise_std = 8.0\n\n[sensor]\nposition = [0.0, 0.0, 0.0]\nvelocity = [{speed_mps}, 0.0, 0.0]\n",
     );
     let mut rng = StdRng::seed_from_u64(2);
     let el = Normal::new(0.0f64, 6.0).expect("valid normal");
@@ -1381,6 +1386,104 @@ fn isolated_points_on_a_moving_sensor_have_consistent_radial_velocities() -> Tes
         // fast ones reach 0.045 m/s): 0.015 m/s is four Doppler-bin tenths.
         assert!(c.rms_slow_fast_mps[1] <= 0.015, "{chain:?}: {c:?}");
     }
+    Ok(())
+}
+
+/// Above the unambiguous velocity (ColoRadar: ±2.48 m/s, half the Doppler bins) a return's
+/// Doppler aliases, and the TDM compensation then rotates its TX slots by the wrong phase. The
+/// DBE chain's slow-time rules drop such returns (their beams disagree): every point it keeps
+/// has the right radial velocity but for returns within two Doppler bins of the limit, where
+/// the slot phases are least wrong; the FFT chain keeps returns well beyond it with an aliased
+/// Doppler (README, Known limitations).
+#[test]
+fn above_the_unambiguous_velocity_the_dbe_chain_keeps_only_unaliased_returns() -> TestResult {
+    use dbe_radar::Params;
+    use host_sim::core_run::{Chain, CoreRunner};
+    use host_sim::score::mid_frame_s;
+    use host_sim::sensor::SensorConfig;
+    use host_sim::sim::Simulation;
+
+    let sensor = SensorConfig::coloradar();
+    let bin = dbe_radar::Waveform::COLORADAR.doppler_bin_mps(128, 128, 3);
+    let v_max = bin * 64.0;
+    let mid = mid_frame_s(&sensor);
+    // Per chain, the counts at each speed (README quotes them).
+    let (mut dbe, mut fft) = (Vec::new(), Vec::new());
+    for speed in [3.0, 3.5] {
+        let scene = isolated_points_at(speed);
+        let sim = Simulation::new(&scene, &sensor)?;
+        for chain in [Chain::Dbe, Chain::Fft] {
+            let mut runner = CoreRunner::with_chain(&sensor, Params::defaults(128), chain)?;
+            // Points with the right radial velocity; aliased ones whose true radial velocity
+            // lies within two bins of the limit, and beyond that.
+            let (mut right, mut at_limit, mut beyond) = (0, 0, 0);
+            for i in 0..6 {
+                let frame = sim.frame(i)?;
+                // The targets' radial velocities at mid-frame (one target per range bin: a
+                // point is matched by its range; an aliased one's direction can be far off).
+                let targets: Vec<(f64, f64)> = frame
+                    .truth
+                    .objects
+                    .iter()
+                    .map(|o| {
+                        let (p, v) = (Vector3::from(o.position), Vector3::from(o.velocity));
+                        let at = p + v * mid;
+                        (at.norm(), at.normalize().dot(&v))
+                    })
+                    .collect();
+                for p in runner.process(&frame.adc)?.points {
+                    let range = Vector3::new(p.x, p.y, p.z).norm();
+                    let Some(&(_, truth)) = targets
+                        .iter()
+                        .min_by(|a, b| (a.0 - range).abs().total_cmp(&(b.0 - range).abs()))
+                    else {
+                        continue;
+                    };
+                    // An aliased point is off by about 2·v_max; a right one by a fraction of
+                    // a bin (0.039 m/s).
+                    if (p.doppler - truth).abs() < 0.1 {
+                        right += 1;
+                    } else if truth.abs() - v_max < 2.0 * bin {
+                        at_limit += 1;
+                    } else {
+                        beyond += 1;
+                    }
+                }
+            }
+            println!(
+                "{speed} m/s (limit {v_max:.2} m/s), {chain:?}: {right} right, aliased {at_limit} \
+                 within two bins of the limit and {beyond} beyond"
+            );
+            match chain {
+                Chain::Dbe => {
+                    assert!(beyond == 0 && right >= 6, "{chain:?} at {speed} m/s");
+                    dbe.push((right, at_limit + beyond));
+                }
+                Chain::Fft => {
+                    assert!(beyond > 0, "{chain:?} at {speed} m/s");
+                    fft.push((right, at_limit + beyond));
+                }
+            }
+        }
+    }
+    let join = |v: &[(usize, usize)], f: fn(&(usize, usize)) -> usize| {
+        v.iter()
+            .map(|c| f(c).to_string())
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    let line = format!(
+        "DBE {} points with the right Doppler, {} aliased (the one within two bins of the limit); \
+         FFT {} right and {} aliased",
+        join(&dbe, |c| c.0),
+        join(&dbe, |c| c.1),
+        join(&fft, |c| c.0),
+        join(&fft, |c| c.1),
+    );
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md"))?;
+    let flat = readme.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(flat.contains(&line), "README lacks the test's {line}");
     Ok(())
 }
 
