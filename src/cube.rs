@@ -42,6 +42,43 @@ pub const fn zero_storage<const N: usize, const K: usize, const M: usize>() -> C
     [[[[0; 2]; M]; K]; N]
 }
 
+/// A block exponent `e` of range spectra computed off the core ([`crate::Frontend::push_range_blocks`]):
+/// the spectrum is `mantissa · 2^e`. Valid from −125 to 112: `2^e` a normal `f32`, and every
+/// mantissa times it finite (`2^15 · 2^112 = 2^127`); the cube's own exponents, of spectra
+/// from i16 samples, lie far inside.
+///
+/// ```
+/// use dbe_radar::cube::BlockExponent;
+/// assert_eq!(BlockExponent::new(-3).map(BlockExponent::get), Some(-3));
+/// assert!(BlockExponent::new(112).is_some() && BlockExponent::new(113).is_none());
+/// assert!(BlockExponent::new(-125).is_some() && BlockExponent::new(-126).is_none());
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct BlockExponent(i8);
+
+impl BlockExponent {
+    /// The largest valid exponent.
+    pub const MAX: i8 = 112;
+
+    /// `e`, or `None` outside −125..=[`Self::MAX`].
+    pub const fn new(e: i8) -> Option<Self> {
+        match (e as i32) >= -EXPONENT_LIMIT && e <= Self::MAX {
+            true => Some(Self(e)),
+            false => None,
+        }
+    }
+
+    /// The exponent.
+    pub const fn get(self) -> i8 {
+        self.0
+    }
+
+    /// `2^e`.
+    pub fn factor(self) -> f32 {
+        stored_pow2(self.0)
+    }
+}
+
 /// Which chirp of a frame: loop index `k` and TDM slot (TX data index) `t`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub struct ChirpId {
@@ -127,6 +164,12 @@ impl<'a, const N: usize, const K: usize, const M: usize> Cube<'a, N, K, M> {
     /// The stored mantissas (see the module docs for their scale).
     pub fn mantissas(&self) -> &CubeStorage<N, K, M> {
         self.bins
+    }
+
+    /// The block exponent of every stored chirp, `[row][loop]`: row `r` of loop `k` is
+    /// `mantissas()[bin][k][r] · 2^exponents()[r][k]`.
+    pub fn exponents(&self) -> &[[i8; K]; M] {
+        &self.exponent
     }
 
     /// Chirps received in order so far in this frame.
@@ -221,6 +264,27 @@ impl<'a, const N: usize, const K: usize, const M: usize> Cube<'a, N, K, M> {
                     bin[k][row] = [round_small(v.re * scale), round_small(v.im * scale)];
                 }
             }
+        }
+    }
+}
+
+impl<const N: usize, const K: usize, const M: usize> Cube<'_, N, K, M> {
+    /// Store row `row`, loop `k` as given: `mantissas` with the exponent `e` (no rounding;
+    /// a mantissa of −32768, which [`Self::store`] never writes, is kept as it is).
+    #[inline(always)]
+    pub(crate) fn store_mantissas(
+        &mut self,
+        row: usize,
+        k: usize,
+        mantissas: &[CubeSample; N],
+        e: BlockExponent,
+    ) {
+        if row >= M || k >= K {
+            return;
+        }
+        self.exponent[row][k] = e.get();
+        for (bin, m) in self.bins.iter_mut().zip(mantissas.iter()) {
+            bin[k][row] = *m;
         }
     }
 }

@@ -6,6 +6,9 @@
 //!              → Cube[bin][loop][row]
 //! push_range_spectra : the same from range spectra computed off the core (the radar's
 //!              FFT accelerator, a DSP): TDM order check → − coupling → × gain → Cube
+//! push_range_blocks  : the same from 16-bit spectra with an exponent (`mantissa · 2^e`, an
+//!              accelerator's fixed-point output): without coupling and gains copied into
+//!              the Cube as they are, else decoded → − coupling → × gain → Cube
 //! frame      : all K·TX chirps in order? → Frame (else FrameError)
 //! ```
 //!
@@ -18,7 +21,7 @@
 use num_complex::Complex32;
 
 use crate::config::{AntennaGeometry, ArrayLayout, ConfigError, Param, Waveform};
-use crate::cube::{ChirpId, Cube, Frame, FrameError};
+use crate::cube::{BlockExponent, ChirpId, Cube, CubeSample, Frame, FrameError};
 #[cfg(not(target_arch = "arm"))]
 use crate::fft::Lanes;
 use crate::range::RangeFft;
@@ -367,14 +370,67 @@ impl<
         for (s, &row) in spectra.iter().zip(rows.iter()) {
             let row = usize::from(row);
             if self.coupling_on || self.gains_on {
-                let mut spectrum = *s;
-                self.correct(row, &mut spectrum);
-                cube.store(row, k, &spectrum);
+                self.store_corrected(cube, row, k, &mut s.clone());
             } else {
                 cube.store(row, k, s);
             }
         }
         Ok(())
+    }
+
+    /// Ingest one chirp whose range FFT was computed off this core in 16-bit fixed point: the
+    /// spectrum of RX channel `rx` is `mantissas[rx][bin] · 2^exponents[rx]` (`[re, im]`; TI's
+    /// radar cube, `cmplx16ImRe_t`, holds `[im, re]`: swap them), in this frontend's units as
+    /// for [`Self::push_range_spectra`]. An accelerator with a fixed output scale gives every
+    /// chirp one exponent; a block-floating-point FFT, each chirp its own.
+    ///
+    /// This is the cube's own format, so without a coupling calibration or channel gains the
+    /// mantissas are stored as they are (no rounding, no `f32`): given the cube's own
+    /// mantissas and exponents ([`Cube::mantissas`], [`Cube::exponents`]) it is bit-identical
+    /// to the cube they came from. With either calibration on, the spectrum is decoded to
+    /// `f32` (exact: 16 bits times a power of two) and ingested as by `push_range_spectra`.
+    /// The TDM order rules are [`Self::push_chirp`]'s.
+    pub fn push_range_blocks(
+        &self,
+        cube: &mut Cube<'_, N, K, M>,
+        id: ChirpId,
+        mantissas: &[[CubeSample; N]; RX],
+        exponents: &[BlockExponent; RX],
+    ) -> Result<(), FrameError> {
+        let Some(k) = cube.accept(id, TX) else {
+            return cube.frame(TX).and(Err(FrameError::TooManyChirps));
+        };
+        let Some(rows) = self.layout.row_of.get(usize::from(id.tx_slot)) else {
+            return Ok(());
+        };
+        for ((m, &e), &row) in mantissas.iter().zip(exponents.iter()).zip(rows.iter()) {
+            let row = usize::from(row);
+            if self.coupling_on || self.gains_on {
+                let (f, mut spectrum) = (e.factor(), [ZERO; N]);
+                for (s, m) in spectrum.iter_mut().zip(m.iter()) {
+                    *s = Complex32::new(f32::from(m[0]) * f, f32::from(m[1]) * f);
+                }
+                self.store_corrected(cube, row, k, &mut spectrum);
+            } else {
+                cube.store_mantissas(row, k, m, e);
+            }
+        }
+        Ok(())
+    }
+
+    /// [`Self::correct`] `spectrum`, then store it as row `row`, loop `k`: the calibrated
+    /// path of [`Self::push_range_spectra`] and [`Self::push_range_blocks`], one copy of the
+    /// block-float store for both (flash on a microcontroller).
+    #[inline(never)]
+    fn store_corrected(
+        &self,
+        cube: &mut Cube<'_, N, K, M>,
+        row: usize,
+        k: usize,
+        spectrum: &mut [Complex32; N],
+    ) {
+        self.correct(row, spectrum);
+        cube.store(row, k, spectrum);
     }
 
     /// Subtract the coupling calibration of cube row `row` and apply its channel gain, in

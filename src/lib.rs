@@ -73,7 +73,7 @@ pub mod window;
 pub use cfar::{CfarKind, CfarParams, Detection};
 pub use chain::Chain;
 pub use config::{AntennaGeometry, ConfigError, Waveform};
-pub use cube::{ChirpId, Cube, Frame, FrameError};
+pub use cube::{BlockExponent, ChirpId, Cube, Frame, FrameError};
 pub use ego::{EgoEstimator, EgoParams, EgoStatus, EgoVelocity};
 pub use elevation::ElevationParams;
 pub use fft_pipeline::{FftChain, FftParams, FftWorkspace};

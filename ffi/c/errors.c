@@ -173,6 +173,43 @@ int main(void) {
             spectra[i] = NAN;
     }
 
+    /* 16-bit range spectra with an exponent per RX channel: sizes, pointers, exponent range
+     * (a rejected call stores nothing: the frame still starts at loop 0 slot 0), order; a
+     * frame of zero blocks gives no point, one of extreme mantissas at the largest exponent
+     * is processed. */
+    static int16_t blocks[4 * 128 * 2];
+    int8_t exps[4] = {0, 0, 0, 0};
+    EXPECT(dbe_begin_frame(radar), DBE_OK);
+    EXPECT(dbe_push_range_blocks(radar, 0, 0, NULL, sz.chirp_values, exps, 4), DBE_ERR_NULL_POINTER);
+    EXPECT(dbe_push_range_blocks(radar, 0, 0, blocks, sz.chirp_values, NULL, 4), DBE_ERR_NULL_POINTER);
+    EXPECT(dbe_push_range_blocks(radar, 0, 0, blocks, sz.chirp_values - 2, exps, 4), DBE_ERR_CHIRP_SIZE);
+    EXPECT(dbe_push_range_blocks(radar, 0, 0, blocks, sz.chirp_values, exps, 3), DBE_ERR_CHIRP_SIZE);
+    EXPECT(dbe_push_range_blocks(radar, 0, 0, (const int16_t *)((const char *)blocks + 1), sz.chirp_values, exps, 4),
+           DBE_ERR_MISALIGNED);
+    exps[2] = 113;
+    EXPECT(dbe_push_range_blocks(radar, 0, 0, blocks, sz.chirp_values, exps, 4), DBE_ERR_OUT_OF_RANGE);
+    exps[2] = -126;
+    EXPECT(dbe_push_range_blocks(radar, 0, 0, blocks, sz.chirp_values, exps, 4), DBE_ERR_OUT_OF_RANGE);
+    exps[2] = 0;
+    EXPECT(dbe_push_range_blocks(radar, 1, 0, blocks, sz.chirp_values, exps, 4), DBE_ERR_CHIRP_OUT_OF_ORDER);
+    for (int pass = 0; pass < 2; pass++) {
+        EXPECT(dbe_begin_frame(radar), DBE_OK);
+        for (uint32_t k = 0; k < sz.loops; k++)
+            for (uint32_t t = 0; t < sz.tx; t++)
+                EXPECT(dbe_push_range_blocks(radar, (uint16_t)k, (uint8_t)t, blocks, sz.chirp_values, exps, 4), DBE_OK);
+        EXPECT(dbe_push_range_blocks(radar, 0, 0, blocks, sz.chirp_values, exps, 4), DBE_ERR_TOO_MANY_CHIRPS);
+        EXPECT(dbe_begin_frame(radar), DBE_OK);
+        for (uint32_t k = 0; k < sz.loops; k++)
+            for (uint32_t t = 0; t < sz.tx; t++)
+                EXPECT(dbe_push_range_blocks(radar, (uint16_t)k, (uint8_t)t, blocks, sz.chirp_values, exps, 4), DBE_OK);
+        EXPECT(dbe_process_frame(radar, &st), DBE_OK);
+        if (pass == 0) CHECK(st.points == 0);
+        for (size_t i = 0; i < sizeof blocks / sizeof blocks[0]; i++)
+            blocks[i] = (i % 2) ? INT16_MAX : INT16_MIN;
+        for (int r = 0; r < 4; r++)
+            exps[r] = 112;
+    }
+
     /* Range bias: any finite value. */
     EXPECT(dbe_set_range_bias(radar, NAN), DBE_ERR_NOT_FINITE);
     EXPECT(dbe_set_range_bias(radar, 0.07f), DBE_OK);

@@ -53,6 +53,8 @@
 //! | `total` | `ingest` + `process`: one frame |
 //! | `ingest_from_spectra` | Σ `Frontend::push_range_spectra` over the frame: the ingest of a radar whose FFT accelerator computes the range spectra (each chirp's spectra computed untimed by `RangeFft` first; after the frame, not in `total`) |
 //! | `total_from_spectra` | `ingest_from_spectra` + `process`: one frame with the range FFT off the core |
+//! | `ingest_from_blocks` | Σ `Frontend::push_range_blocks` over the frame: the ingest of 16-bit spectra with an exponent, an FFT accelerator's fixed-point output (each chirp's mantissas and exponents copied untimed out of the cube first and fed back; after the frame, not in `total`) |
+//! | `total_from_blocks` | `ingest_from_blocks` + `process`: one frame with a 16-bit range FFT off the core |
 //! | `setup` | `Frontend::configure` + `Chain::configure` + `EgoEstimator::configure` (once, not per frame) |
 #![no_std]
 #![deny(unsafe_code)]
@@ -65,8 +67,8 @@ use core::fmt;
 
 use dbe_radar::cube::CubeStorage;
 use dbe_radar::{
-    AntennaGeometry, Chain, ChirpId, ConfigError, Cube, EgoEstimator, EgoParams, FrameError,
-    Frontend, PointCloud, Waveform,
+    AntennaGeometry, BlockExponent, Chain, ChirpId, ConfigError, Cube, EgoEstimator, EgoParams,
+    FrameError, Frontend, PointCloud, Waveform,
 };
 
 use console::Console;
@@ -205,7 +207,7 @@ pub enum Failure {
     Config(ConfigError),
     /// Ingestion rejected the frame.
     Frame(FrameError),
-    /// `push_range_spectra` left another cube than `push_chirp` did.
+    /// `push_range_spectra` or `push_range_blocks` left another cube than `push_chirp` did.
     SpectraCube,
     /// The instruction clock does not count whole instructions per tick.
     Clock(clock::Calibration),
@@ -227,7 +229,7 @@ impl fmt::Display for Failure {
             Failure::Frame(e) => write!(f, "frame rejected: {e}"),
             Failure::SpectraCube => write!(
                 f,
-                "ingesting the range spectra left another cube than ingesting the chirps"
+                "ingesting the range spectra or blocks left another cube than ingesting the chirps"
             ),
         }
     }
@@ -330,6 +332,7 @@ fn ingest<
 }
 
 /// FNV-1a over the cube's mantissas: the check that two ingestions left the same cube.
+#[inline(never)]
 fn cube_digest<const N: usize, const K: usize, const M: usize>(cube: &Cube<'_, N, K, M>) -> u32 {
     let mut h = 0x811c_9dc5u32;
     for v in cube.mantissas().iter().flatten().flatten().flatten() {
@@ -341,7 +344,7 @@ fn cube_digest<const N: usize, const K: usize, const M: usize>(cube: &Cube<'_, N
 /// Ticks of the frame's ingestion from range spectra ([`Frontend::push_range_spectra`]), as
 /// a radar whose FFT accelerator computes them would feed the core: each chirp's spectra are
 /// computed first, untimed, by the frontend's `RangeFft`. The cube must come out as
-/// `push_chirp` left it (else [`Failure::SpectraCube`]). Never inlined: its spectra buffer
+/// `push_chirp` left it, digest `before` (else [`Failure::SpectraCube`]). Never inlined: its spectra buffer
 /// (`RX·N·8` bytes) is on a stack frame of its own, after the frame's peak was measured.
 #[inline(never)]
 fn ingest_spectra<
@@ -356,9 +359,9 @@ fn ingest_spectra<
     cube: &mut Cube<'_, N, K, M>,
     dma: &mut [[[i16; 2]; N]; RX],
     frame: &[u8],
+    before: u32,
 ) -> Result<u64, Failure> {
     let fft = dbe_radar::range::RangeFft::<N>::new(frontend.range_window());
-    let before = cube_digest(cube);
     let mut spectra = [[dbe_radar::Complex32::new(0.0, 0.0); N]; RX];
     let mut ticks = 0u64;
     cube.begin_frame();
@@ -384,6 +387,123 @@ fn ingest_spectra<
         return Err(Failure::SpectraCube);
     }
     Ok(ticks)
+}
+
+/// Ticks of the frame's ingestion from 16-bit range spectra with an exponent
+/// ([`Frontend::push_range_blocks`]): each chirp's mantissas and exponents are copied out of
+/// the cube first, untimed, and fed back, so the cube must come out unchanged, digest
+/// `before` (else [`Failure::SpectraCube`]); `tests/pipeline.rs` (`range_blocks_…`) proves on the host that
+/// such blocks fill a bit-identical cube from an empty one. Without calibrations the call
+/// stores the mantissas as they are, so its cost does not depend on the values.
+#[inline(never)]
+fn ingest_blocks<
+    const N: usize,
+    const K: usize,
+    const TX: usize,
+    const RX: usize,
+    const M: usize,
+    const AZ: usize,
+>(
+    frontend: &Frontend<N, K, TX, RX, M, AZ>,
+    cube: &mut Cube<'_, N, K, M>,
+    blocks: &mut [[[i16; 2]; N]; RX],
+    before: u32,
+) -> Result<u64, Failure> {
+    let rows = frontend.layout().row_of;
+    let mut ticks = 0u64;
+    cube.begin_frame();
+    for k in 0..K {
+        for (t, rows) in rows.iter().enumerate() {
+            let mut exponents = [BlockExponent::default(); RX];
+            for ((b, e), &row) in blocks.iter_mut().zip(exponents.iter_mut()).zip(rows.iter()) {
+                let row = usize::from(row);
+                for (v, bin) in b.iter_mut().zip(cube.mantissas().iter()) {
+                    *v = bin[k][row];
+                }
+                *e = BlockExponent::new(cube.exponents()[row][k]).unwrap_or_default();
+            }
+            let id = ChirpId {
+                loop_index: k as u16,
+                tx_slot: t as u8,
+            };
+            let (dt, r) = clock::time(|| frontend.push_range_blocks(cube, id, blocks, &exponents));
+            r?;
+            ticks += u64::from(dt);
+        }
+    }
+    let (dt, r) = clock::time(|| frontend.frame(cube).map(|_| ()));
+    r?;
+    ticks += u64::from(dt);
+    if cube_digest(cube) != before {
+        return Err(Failure::SpectraCube);
+    }
+    Ok(ticks)
+}
+
+/// The measured stages, each a function of its own (never inlined into [`run`]).
+mod stages {
+    use dbe_radar::{Chain, EgoEstimator, EgoVelocity, Frame, Point, PointCloud};
+
+    /// `Chain::map`.
+    #[inline(never)]
+    pub fn map<
+        const N: usize,
+        const K: usize,
+        const TX: usize,
+        const RX: usize,
+        const M: usize,
+        const AZ: usize,
+        C: Chain<N, K, TX, RX, M, AZ>,
+    >(
+        chain: &C,
+        frame: &Frame<'_, N, K, M>,
+        work: &mut C::Workspace,
+    ) {
+        chain.map(frame, work)
+    }
+
+    /// `Chain::detect`.
+    #[inline(never)]
+    pub fn detect<
+        const N: usize,
+        const K: usize,
+        const TX: usize,
+        const RX: usize,
+        const M: usize,
+        const AZ: usize,
+        C: Chain<N, K, TX, RX, M, AZ>,
+    >(
+        chain: &C,
+        work: &mut C::Workspace,
+    ) {
+        chain.detect(work)
+    }
+
+    /// `Chain::points`.
+    #[inline(never)]
+    pub fn points<
+        const N: usize,
+        const K: usize,
+        const TX: usize,
+        const RX: usize,
+        const M: usize,
+        const AZ: usize,
+        const P: usize,
+        C: Chain<N, K, TX, RX, M, AZ>,
+    >(
+        chain: &C,
+        frame: &Frame<'_, N, K, M>,
+        work: &mut C::Workspace,
+        cloud: &mut PointCloud<P>,
+    ) {
+        chain.points(frame, work, cloud)
+    }
+
+    /// `EgoEstimator::estimate`.
+    #[inline(never)]
+    pub fn ego<const E: usize>(ego: &mut EgoEstimator<E>, points: &[Point]) -> EgoVelocity {
+        ego.estimate(points)
+    }
 }
 
 /// The range window of a chain's parameters (both chains carry the frontend's).
@@ -454,12 +574,18 @@ where
     let (t_check, frame) = clock::time(|| frontend.frame(&cube));
     let frame = frame?;
     ingest.ticks += u64::from(t_check);
-    let (t_map, ()) = clock::time(|| chain.map(&frame, b.work));
-    let (t_detect, ()) = clock::time(|| chain.detect(b.work));
-    let (t_points, ()) = clock::time(|| chain.points(&frame, b.work, b.cloud));
-    let (t_ego, ego) = clock::time(|| b.ego.estimate(b.cloud.points()));
+    // Each stage out of line (`stages`): what LLVM inlines into this function must not
+    // depend on how many other measurements it makes, or its stack frame and the image's
+    // flash move with them.
+    let (t_map, ()) = clock::time(|| stages::map(chain, &frame, b.work));
+    let (t_detect, ()) = clock::time(|| stages::detect(chain, b.work));
+    let (t_points, ()) = clock::time(|| stages::points(chain, &frame, b.work, b.cloud));
+    let (t_ego, ego) = clock::time(|| stages::ego(b.ego, b.cloud.points()));
     let stack_frame = stack::peak_bytes();
-    let from_spectra = ingest_spectra(frontend, &mut cube, b.dma, preset.frame)?;
+    // `push_chirp`'s cube, which both ingestions below must leave as it is.
+    let digest = cube_digest(&cube);
+    let from_spectra = ingest_spectra(frontend, &mut cube, b.dma, preset.frame, digest)?;
+    let from_blocks = ingest_blocks(frontend, &mut cube, b.dma, digest)?;
 
     say!(
         con,
@@ -527,7 +653,7 @@ where
     );
     let process = u64::from(t_map) + u64::from(t_detect) + u64::from(t_points);
     let [map, detect, points] = C::STAGES;
-    let stages: [(&str, (u64, u64)); 13] = [
+    let stages: [(&str, (u64, u64)); 15] = [
         ("setup", i(t_setup)),
         ("range_fft_per_chirp", per_chirp),
         ("range_fft_chirp_min", i(ingest.chirp_min)),
@@ -554,6 +680,17 @@ where
             (
                 cal.instructions(from_spectra + process),
                 from_spectra + process,
+            ),
+        ),
+        (
+            "ingest_from_blocks",
+            (cal.instructions(from_blocks), from_blocks),
+        ),
+        (
+            "total_from_blocks",
+            (
+                cal.instructions(from_blocks + process),
+                from_blocks + process,
             ),
         ),
     ];

@@ -358,6 +358,14 @@ const DBE_STAGES: StageRows = (
             "per frame with the range FFT off the core (ingest from spectra + process)",
         ),
         (
+            "ingest_from_blocks",
+            "ingest from 16-bit range spectra with an exponent (`push_range_blocks`, all K·TX chirps)",
+        ),
+        (
+            "total_from_blocks",
+            "per frame with a 16-bit range FFT off the core (ingest from blocks + process)",
+        ),
+        (
             "setup",
             "setup: `Frontend::configure` + `Dbe::configure` (once)",
         ),
@@ -400,6 +408,14 @@ const FFT_STAGES: StageRows = (
         (
             "total_from_spectra",
             "per frame with the range FFT off the core (ingest from spectra + process)",
+        ),
+        (
+            "ingest_from_blocks",
+            "ingest from 16-bit range spectra with an exponent (`push_range_blocks`, all K·TX chirps)",
+        ),
+        (
+            "total_from_blocks",
+            "per frame with a 16-bit range FFT off the core (ingest from blocks + process)",
         ),
         (
             "setup",
