@@ -435,13 +435,11 @@ fn the_papers_chain_is_the_defaults_without_the_additions() {
     assert_eq!(restored, d);
 }
 
-/// Range spectra computed off the core (`push_range_spectra`, the path of a radar whose FFT
-/// accelerator does the range FFT) fill the same cube as `push_chirp`, with and without the
-/// coupling and channel-gain calibrations: same mantissas, same map, same points.
-#[test]
-fn range_spectra_from_an_accelerator_fill_the_same_cube() {
-    use dbe_radar::range::RangeFft;
-    use dbe_radar::{ChirpId, Complex32};
+/// The accelerator tests' frame and frontends: two targets with noise on the ColoRadar preset,
+/// the default DBE chain, and the plain frontend with a calibrated copy (a coupling bump at the
+/// first bins and a gain per channel).
+fn accelerator_fixture() -> (Vec<p::Chirp>, Params, p::Frontend, p::Frontend, p::Dbe) {
+    use dbe_radar::Complex32;
     let targets = [
         Target::polar(4.0, 10.0, 5.0, 0.8, 30.0),
         Target::polar(9.0, -25.0, -8.0, -1.1, 20.0),
@@ -456,7 +454,6 @@ fn range_spectra_from_an_accelerator_fill_the_same_cube() {
     );
     let params = Params::defaults(p::SAMPLES);
     let (plain, dbe) = dbe_for(Waveform::COLORADAR, AntennaGeometry::COLORADAR, params).unwrap();
-    // A calibrated frontend: a coupling bump at the first bins and a gain per channel.
     let bump: [Complex32; 16] =
         core::array::from_fn(|b| Complex32::new(900.0 / (1.0 + b as f32), -40.0));
     let coupling = [[&bump[..]; p::RX]; p::TX];
@@ -466,6 +463,17 @@ fn range_spectra_from_an_accelerator_fill_the_same_cube() {
     let mut calibrated = plain.clone();
     calibrated.set_coupling(&coupling).unwrap();
     calibrated.set_channel_gains(&gains).unwrap();
+    (chirps, params, plain, calibrated, dbe)
+}
+
+/// Range spectra computed off the core (`push_range_spectra`, the path of a radar whose FFT
+/// accelerator does the range FFT) fill the same cube as `push_chirp`, with and without the
+/// coupling and channel-gain calibrations: same mantissas, same map, same points.
+#[test]
+fn range_spectra_from_an_accelerator_fill_the_same_cube() {
+    use dbe_radar::range::RangeFft;
+    use dbe_radar::{ChirpId, Complex32};
+    let (chirps, params, plain, calibrated, dbe) = accelerator_fixture();
     let fft = RangeFft::<{ p::SAMPLES }>::new(params.range_window);
     for frontend in [&plain, &calibrated] {
         let dbe = dbe.clone();
@@ -524,30 +532,7 @@ fn range_blocks_from_an_accelerator_fill_the_same_cube() {
     use dbe_radar::range::RangeFft;
     use dbe_radar::{ChirpId, Complex32};
     type Blocks = [[CubeSample; p::SAMPLES]; p::RX];
-    let targets = [
-        Target::polar(4.0, 10.0, 5.0, 0.8, 30.0),
-        Target::polar(9.0, -25.0, -8.0, -1.1, 20.0),
-    ];
-    let chirps = synth_phased::<{ p::SAMPLES }, { p::LOOPS }, { p::TX }, { p::RX }>(
-        &Waveform::COLORADAR,
-        &AntennaGeometry::COLORADAR,
-        &targets,
-        None,
-        5.0,
-        3,
-    );
-    let params = Params::defaults(p::SAMPLES);
-    let (plain, dbe) = dbe_for(Waveform::COLORADAR, AntennaGeometry::COLORADAR, params).unwrap();
-    let bump: [Complex32; 16] =
-        core::array::from_fn(|b| Complex32::new(900.0 / (1.0 + b as f32), -40.0));
-    let gains: [[Complex32; p::RX]; p::TX] = core::array::from_fn(|t| {
-        core::array::from_fn(|r| Complex32::from_polar(1.0 + 0.05 * r as f32, 0.1 * t as f32))
-    });
-    let mut calibrated = plain.clone();
-    calibrated
-        .set_coupling(&[[&bump[..]; p::RX]; p::TX])
-        .unwrap();
-    calibrated.set_channel_gains(&gains).unwrap();
+    let (chirps, params, plain, calibrated, dbe) = accelerator_fixture();
     let rows = plain.layout().row_of;
 
     // The source: the plain frontend's own cube.

@@ -341,11 +341,49 @@ fn cube_digest<const N: usize, const K: usize, const M: usize>(cube: &Cube<'_, N
     h
 }
 
+/// Re-ingest the cube's frame chirp by chirp in TDM order: `push(cube, id)` prepares chirp
+/// `id` untimed and returns the ticks of its timed push; then [`Frontend::frame`] (timed).
+/// The cube must come out with the digest `before`, `push_chirp`'s (else
+/// [`Failure::SpectraCube`]). Returns the ticks of the pushes and the frame check.
+#[inline(always)]
+fn reingest<
+    const N: usize,
+    const K: usize,
+    const TX: usize,
+    const RX: usize,
+    const M: usize,
+    const AZ: usize,
+>(
+    frontend: &Frontend<N, K, TX, RX, M, AZ>,
+    cube: &mut Cube<'_, N, K, M>,
+    before: u32,
+    mut push: impl FnMut(&mut Cube<'_, N, K, M>, ChirpId) -> Result<u32, FrameError>,
+) -> Result<u64, Failure> {
+    let mut ticks = 0u64;
+    cube.begin_frame();
+    for k in 0..K {
+        for t in 0..TX {
+            let id = ChirpId {
+                loop_index: k as u16,
+                tx_slot: t as u8,
+            };
+            ticks += u64::from(push(cube, id)?);
+        }
+    }
+    let (dt, r) = clock::time(|| frontend.frame(cube).map(|_| ()));
+    r?;
+    ticks += u64::from(dt);
+    if cube_digest(cube) != before {
+        return Err(Failure::SpectraCube);
+    }
+    Ok(ticks)
+}
+
 /// Ticks of the frame's ingestion from range spectra ([`Frontend::push_range_spectra`]), as
 /// a radar whose FFT accelerator computes them would feed the core: each chirp's spectra are
-/// computed first, untimed, by the frontend's `RangeFft`. The cube must come out as
-/// `push_chirp` left it, digest `before` (else [`Failure::SpectraCube`]). Never inlined: its spectra buffer
-/// (`RX·N·8` bytes) is on a stack frame of its own, after the frame's peak was measured.
+/// computed first, untimed, by the frontend's `RangeFft` ([`reingest`]). Never inlined: its
+/// spectra buffer (`RX·N·8` bytes) is on a stack frame of its own, after the frame's peak was
+/// measured.
 #[inline(never)]
 fn ingest_spectra<
     const N: usize,
@@ -363,38 +401,23 @@ fn ingest_spectra<
 ) -> Result<u64, Failure> {
     let fft = dbe_radar::range::RangeFft::<N>::new(frontend.range_window());
     let mut spectra = [[dbe_radar::Complex32::new(0.0, 0.0); N]; RX];
-    let mut ticks = 0u64;
-    cube.begin_frame();
-    for k in 0..K {
-        for t in 0..TX {
-            load_chirp::<N, TX, RX>(frame, k, t, dma);
-            for (s, samples) in spectra.iter_mut().zip(dma.iter()) {
-                fft.process(samples, s);
-            }
-            let id = ChirpId {
-                loop_index: k as u16,
-                tx_slot: t as u8,
-            };
-            let (dt, r) = clock::time(|| frontend.push_range_spectra(cube, id, &spectra));
-            r?;
-            ticks += u64::from(dt);
+    reingest(frontend, cube, before, |cube, id| {
+        let (k, t) = (usize::from(id.loop_index), usize::from(id.tx_slot));
+        load_chirp::<N, TX, RX>(frame, k, t, dma);
+        for (s, samples) in spectra.iter_mut().zip(dma.iter()) {
+            fft.process(samples, s);
         }
-    }
-    let (dt, r) = clock::time(|| frontend.frame(cube).map(|_| ()));
-    r?;
-    ticks += u64::from(dt);
-    if cube_digest(cube) != before {
-        return Err(Failure::SpectraCube);
-    }
-    Ok(ticks)
+        let (dt, r) = clock::time(|| frontend.push_range_spectra(cube, id, &spectra));
+        r.map(|()| dt)
+    })
 }
 
 /// Ticks of the frame's ingestion from 16-bit range spectra with an exponent
 /// ([`Frontend::push_range_blocks`]): each chirp's mantissas and exponents are copied out of
-/// the cube first, untimed, and fed back, so the cube must come out unchanged, digest
-/// `before` (else [`Failure::SpectraCube`]); `tests/pipeline.rs` (`range_blocks_…`) proves on the host that
-/// such blocks fill a bit-identical cube from an empty one. Without calibrations the call
-/// stores the mantissas as they are, so its cost does not depend on the values.
+/// the cube first, untimed, and fed back ([`reingest`]: the cube must come out unchanged);
+/// `tests/pipeline.rs` (`range_blocks_…`) proves on the host that such blocks fill a
+/// bit-identical cube from an empty one. Without calibrations the call stores the mantissas
+/// as they are, so its cost does not depend on the values.
 #[inline(never)]
 fn ingest_blocks<
     const N: usize,
@@ -409,35 +432,22 @@ fn ingest_blocks<
     blocks: &mut [[[i16; 2]; N]; RX],
     before: u32,
 ) -> Result<u64, Failure> {
-    let rows = frontend.layout().row_of;
-    let mut ticks = 0u64;
-    cube.begin_frame();
-    for k in 0..K {
-        for (t, rows) in rows.iter().enumerate() {
-            let mut exponents = [BlockExponent::default(); RX];
-            for ((b, e), &row) in blocks.iter_mut().zip(exponents.iter_mut()).zip(rows.iter()) {
-                let row = usize::from(row);
-                for (v, bin) in b.iter_mut().zip(cube.mantissas().iter()) {
-                    *v = bin[k][row];
-                }
-                *e = BlockExponent::new(cube.exponents()[row][k]).unwrap_or_default();
+    let layout = frontend.layout().row_of;
+    reingest(frontend, cube, before, |cube, id| {
+        let (k, t) = (usize::from(id.loop_index), usize::from(id.tx_slot));
+        let mut exponents = [BlockExponent::default(); RX];
+        let rows = layout.get(t).copied().unwrap_or([0; RX]);
+        for ((b, e), &row) in blocks.iter_mut().zip(exponents.iter_mut()).zip(rows.iter()) {
+            let row = usize::from(row);
+            for (v, bin) in b.iter_mut().zip(cube.mantissas().iter()) {
+                *v = bin[k][row];
             }
-            let id = ChirpId {
-                loop_index: k as u16,
-                tx_slot: t as u8,
-            };
-            let (dt, r) = clock::time(|| frontend.push_range_blocks(cube, id, blocks, &exponents));
-            r?;
-            ticks += u64::from(dt);
+            let stored = cube.exponents().get(row).and_then(|e| e.get(k)).copied();
+            *e = stored.and_then(BlockExponent::new).unwrap_or_default();
         }
-    }
-    let (dt, r) = clock::time(|| frontend.frame(cube).map(|_| ()));
-    r?;
-    ticks += u64::from(dt);
-    if cube_digest(cube) != before {
-        return Err(Failure::SpectraCube);
-    }
-    Ok(ticks)
+        let (dt, r) = clock::time(|| frontend.push_range_blocks(cube, id, blocks, &exponents));
+        r.map(|()| dt)
+    })
 }
 
 /// The measured stages, each a function of its own (never inlined into [`run`]).
