@@ -450,70 +450,11 @@ fn ingest_blocks<
     })
 }
 
-/// The measured stages, each a function of its own (never inlined into [`run`]).
-mod stages {
-    use dbe_radar::{Chain, EgoEstimator, EgoVelocity, Frame, Point, PointCloud};
-
-    /// `Chain::map`.
-    #[inline(never)]
-    pub fn map<
-        const N: usize,
-        const K: usize,
-        const TX: usize,
-        const RX: usize,
-        const M: usize,
-        const AZ: usize,
-        C: Chain<N, K, TX, RX, M, AZ>,
-    >(
-        chain: &C,
-        frame: &Frame<'_, N, K, M>,
-        work: &mut C::Workspace,
-    ) {
-        chain.map(frame, work)
-    }
-
-    /// `Chain::detect`.
-    #[inline(never)]
-    pub fn detect<
-        const N: usize,
-        const K: usize,
-        const TX: usize,
-        const RX: usize,
-        const M: usize,
-        const AZ: usize,
-        C: Chain<N, K, TX, RX, M, AZ>,
-    >(
-        chain: &C,
-        work: &mut C::Workspace,
-    ) {
-        chain.detect(work)
-    }
-
-    /// `Chain::points`.
-    #[inline(never)]
-    pub fn points<
-        const N: usize,
-        const K: usize,
-        const TX: usize,
-        const RX: usize,
-        const M: usize,
-        const AZ: usize,
-        const P: usize,
-        C: Chain<N, K, TX, RX, M, AZ>,
-    >(
-        chain: &C,
-        frame: &Frame<'_, N, K, M>,
-        work: &mut C::Workspace,
-        cloud: &mut PointCloud<P>,
-    ) {
-        chain.points(frame, work, cloud)
-    }
-
-    /// `EgoEstimator::estimate`.
-    #[inline(never)]
-    pub fn ego<const E: usize>(ego: &mut EgoEstimator<E>, points: &[Point]) -> EgoVelocity {
-        ego.estimate(points)
-    }
+/// `f()` in a function of its own: each call site instantiates one, never inlined into its
+/// caller, with `f`'s body inlined into it (a measured stage, out of [`run`]).
+#[inline(never)]
+fn out_of_line<R>(f: impl FnOnce() -> R) -> R {
+    f()
 }
 
 /// The range window of a chain's parameters (both chains carry the frontend's).
@@ -584,13 +525,13 @@ where
     let (t_check, frame) = clock::time(|| frontend.frame(&cube));
     let frame = frame?;
     ingest.ticks += u64::from(t_check);
-    // Each stage out of line (`stages`): what LLVM inlines into this function must not
-    // depend on how many other measurements it makes, or its stack frame and the image's
-    // flash move with them.
-    let (t_map, ()) = clock::time(|| stages::map(chain, &frame, b.work));
-    let (t_detect, ()) = clock::time(|| stages::detect(chain, b.work));
-    let (t_points, ()) = clock::time(|| stages::points(chain, &frame, b.work, b.cloud));
-    let (t_ego, ego) = clock::time(|| stages::ego(b.ego, b.cloud.points()));
+    // Each stage out of line: what LLVM inlines into this function must not depend on how
+    // many other measurements it makes, or its stack frame and the image's flash move with
+    // them.
+    let (t_map, ()) = clock::time(|| out_of_line(|| chain.map(&frame, b.work)));
+    let (t_detect, ()) = clock::time(|| out_of_line(|| chain.detect(b.work)));
+    let (t_points, ()) = clock::time(|| out_of_line(|| chain.points(&frame, b.work, b.cloud)));
+    let (t_ego, ego) = clock::time(|| out_of_line(|| b.ego.estimate(b.cloud.points())));
     let stack_frame = stack::peak_bytes();
     // `push_chirp`'s cube, which both ingestions below must leave as it is.
     let digest = cube_digest(&cube);
