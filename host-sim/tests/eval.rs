@@ -664,4 +664,37 @@ fn the_odometry_section_runs_both_chains_on_every_sequence() {
             "goal {goal} missing"
         );
     }
+    // The paper's four first, then their realistic-surface twins in the same order; the goals
+    // judge the four and name the twins only after them.
+    let paper = host_sim::eval::odometry::PAPER_SEQUENCES;
+    for (i, s) in seqs.iter().enumerate() {
+        assert_eq!(s.realistic, i >= paper, "{}", s.name);
+        assert_eq!(s.base_name(), seqs[i % paper].name, "{}", s.name);
+        assert_eq!(s.text, seqs[i % paper].text, "{}", s.name);
+    }
+    let drift = e
+        .goals
+        .iter()
+        .find(|g| g.goal.contains("XYZ drift ≤ 1.5 %"))
+        .expect("the drift goal");
+    let (judged, twins) = drift
+        .detail
+        .split_once("; with realistic surfaces (not part of the goal): ")
+        .unwrap_or_else(|| panic!("no twins in {}", drift.detail));
+    for (i, s) in seqs.iter().enumerate() {
+        let named = format!("{} ", s.name);
+        let in_judged = judged.split(", ").any(|x| x.starts_with(&named));
+        let in_twins = twins.split(", ").any(|x| x.starts_with(&named));
+        assert_eq!(
+            (in_judged, in_twins),
+            (i < paper, i >= paper),
+            "{}",
+            drift.detail
+        );
+    }
+    // The twins run the realistic surfaces; the paper's four their scenes' own (none set).
+    for (i, s) in seqs.iter().enumerate() {
+        let scene = s.scene().expect("the shipped sequence parses");
+        assert_eq!(!scene.surfaces.is_default(), i >= paper, "{}", s.name);
+    }
 }

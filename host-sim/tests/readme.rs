@@ -175,6 +175,14 @@ fn readme_headline_table_is_the_committed_report() -> TestResult {
 /// The report's odometry sequences, in its order.
 const SEQUENCES: [&str; 4] = ["hallways", "outdoors", "aspen", "army"];
 
+/// Their realistic-surface twins, in the report's order after them.
+const TWINS: [&str; 4] = [
+    "hallways_realistic",
+    "outdoors_realistic",
+    "aspen_realistic",
+    "army_realistic",
+];
+
 /// The odometry summary row of `sequence` and `variant` in the report's `summary.json`.
 fn odometry_row<'a>(
     summary: &'a Value,
@@ -197,7 +205,18 @@ fn odometry_column(
     digits: usize,
     f: &dyn Fn(&Value) -> Result<f64, String>,
 ) -> Result<String, String> {
-    let x: Vec<String> = SEQUENCES
+    sequences_column(&SEQUENCES, summary, variant, digits, f)
+}
+
+/// [`odometry_column`] over `sequences`.
+fn sequences_column(
+    sequences: &[&str],
+    summary: &Value,
+    variant: &str,
+    digits: usize,
+    f: &dyn Fn(&Value) -> Result<f64, String>,
+) -> Result<String, String> {
+    let x: Vec<String> = sequences
         .iter()
         .map(|seq| {
             Ok(format!(
@@ -219,7 +238,7 @@ fn readme_odometry_table_is_the_committed_report() -> TestResult {
         readme.contains(&format!("{seeds} seeds each")),
         "README does not say the report's {seeds} seeds"
     );
-    for seq in SEQUENCES {
+    for seq in SEQUENCES.into_iter().chain(TWINS) {
         let (d, f) = (find(seq, "dbe")?, find(seq, "fft")?);
         let paired = d["xyz_pct_minus_fft"]
             .as_array()
@@ -273,6 +292,25 @@ fn readme_odometry_table_is_the_committed_report() -> TestResult {
             "over its estimates, the report's goal row) is {sigma_z} m/s"
         )),
         "README lacks the report's predicted σ_z {sigma_z}"
+    );
+    // The realistic twins: how many the DBE chain loses, and its drift with the ring split.
+    let drift = |r: &Value| num(&r["drift"]["xyz_pct"], "drift");
+    let mut above = 0;
+    for seq in TWINS {
+        above += usize::from(drift(find(seq, "dbe")?)? > drift(find(seq, "fft")?)?);
+    }
+    let count = ["none", "one", "two", "three", "all"][above];
+    let ring = host_sim::eval::sweep_name(&host_sim::eval::SweepValue::RingSplit(true));
+    let line = format!(
+        "and the DBE chain more than the FFT chain on {count} of the four; with the ring split \
+         (`--ring-split`) it drifts {} % on hallways / outdoors / aspen / army against the FFT \
+         chain's {} %",
+        sequences_column(&TWINS, &summary, &ring, 2, &drift)?,
+        sequences_column(&TWINS, &summary, "fft", 2, &drift)?
+    );
+    assert!(
+        one_line(&readme).contains(&line),
+        "README lacks the report's\n{line}"
     );
     Ok(())
 }

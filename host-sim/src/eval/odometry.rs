@@ -20,29 +20,30 @@ use crate::odometry::{self, metrics, EgoErrors, FrameVelocity, RadialConsistency
 use crate::sensor::SensorConfig;
 use crate::sim::{render::mix, scene_imu, Scene, Simulation};
 
-/// The simulated sequences, after the paper's four (hallways, outdoors, aspen, army).
-pub const SEQUENCES: [SceneFile; 4] = [
-    scene_file(
-        "hallways",
-        include_str!("../../scenes/odometry/hallways.toml"),
-        false,
-    ),
-    scene_file(
-        "outdoors",
-        include_str!("../../scenes/odometry/outdoors.toml"),
-        false,
-    ),
-    scene_file(
-        "aspen",
-        include_str!("../../scenes/odometry/aspen.toml"),
-        false,
-    ),
-    scene_file(
-        "army",
-        include_str!("../../scenes/odometry/army.toml"),
-        false,
-    ),
+/// The simulated sequences, after the paper's four (hallways, outdoors, aspen, army), then
+/// the same four with the simulator's realistic surfaces (`<name>_realistic`:
+/// [`crate::sim::SurfaceModel::realistic`], specular walls, bright edges and corners,
+/// floor-bounce ghosts), on the same seeds: the same IMU draw and ADC noise, so each twin is
+/// a paired comparison of what the surfaces change. The goals are the plain four's
+/// ([`PAPER_SEQUENCES`]).
+pub const SEQUENCES: [SceneFile; 8] = [
+    scene_file("hallways", HALLWAYS, false),
+    scene_file("outdoors", OUTDOORS, false),
+    scene_file("aspen", ASPEN, false),
+    scene_file("army", ARMY, false),
+    scene_file("hallways_realistic", HALLWAYS, true),
+    scene_file("outdoors_realistic", OUTDOORS, true),
+    scene_file("aspen_realistic", ASPEN, true),
+    scene_file("army_realistic", ARMY, true),
 ];
+
+/// How many of [`SEQUENCES`] come first as the paper's four, with the scenes' own surfaces.
+pub const PAPER_SEQUENCES: usize = 4;
+
+const HALLWAYS: &str = include_str!("../../scenes/odometry/hallways.toml");
+const OUTDOORS: &str = include_str!("../../scenes/odometry/outdoors.toml");
+const ASPEN: &str = include_str!("../../scenes/odometry/aspen.toml");
+const ARMY: &str = include_str!("../../scenes/odometry/army.toml");
 
 /// Stream of the per-seed scene seeds.
 const SEED_STREAM: u64 = 0x4F44_4F4D;
@@ -125,7 +126,7 @@ pub fn run_odometry(
     let mut rows = Vec::new();
     for file in &SEQUENCES {
         for k in 0..seeds {
-            let mut scene = Scene::from_toml_str(file.text, file.name)?;
+            let mut scene = file.scene()?;
             scene.seed = mix(mix(mix(seed, SEED_STREAM), scene.seed), k as u64);
             let sim = Simulation::new(&scene, sensor)?;
             let n = frame_count(&scene, limit);
