@@ -176,12 +176,24 @@ fn an_empty_configuration_is_a_typed_error() {
     ));
 }
 
-/// The quick evaluation, run once for all tests below.
+/// The quick evaluation, run once for all tests below, and the progress lines it printed.
 fn quick() -> &'static Evaluation {
-    static EVAL: OnceLock<Evaluation> = OnceLock::new();
-    EVAL.get_or_init(|| match run_evaluation(&EvalConfig::quick(), &|_| {}) {
-        Ok(e) => e,
-        Err(e) => panic!("quick evaluation failed: {e}"),
+    &quick_run().0
+}
+
+fn quick_run() -> &'static (Evaluation, Vec<String>) {
+    static EVAL: OnceLock<(Evaluation, Vec<String>)> = OnceLock::new();
+    EVAL.get_or_init(|| {
+        let lines = std::sync::Mutex::new(Vec::new());
+        let progress = |line: &str| {
+            if let Ok(mut l) = lines.lock() {
+                l.push(line.to_string());
+            }
+        };
+        match run_evaluation(&EvalConfig::quick(), &progress) {
+            Ok(e) => (e, lines.into_inner().unwrap_or_default()),
+            Err(e) => panic!("quick evaluation failed: {e}"),
+        }
     })
 }
 
@@ -662,6 +674,21 @@ fn the_odometry_section_runs_both_chains_on_every_sequence() {
         assert!(
             e.goals.iter().any(|g| g.goal.contains(goal)),
             "goal {goal} missing"
+        );
+    }
+    // The section reports its progress, one line per sequence and seed, in order.
+    let lines: Vec<&String> = quick_run()
+        .1
+        .iter()
+        .filter(|l| l.contains("odometry") && l.contains(" seed "))
+        .collect();
+    let runs = seqs.len() * e.config.odometry_seeds;
+    assert_eq!(lines.len(), runs, "{lines:?}");
+    for (i, line) in lines.iter().enumerate() {
+        let s = &seqs[i / e.config.odometry_seeds];
+        assert!(
+            line.contains(&format!("odometry {}/{runs}: {} seed ", i + 1, s.name)),
+            "{line}"
         );
     }
     // The paper's four first, then their realistic-surface twins in the same order; the goals

@@ -528,6 +528,7 @@ pub fn run_evaluation(
             config.seed,
             config.odometry_seeds,
             config.odometry_frames,
+            progress,
         )?;
         stage("odometry", t);
         rows

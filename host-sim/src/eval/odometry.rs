@@ -113,7 +113,8 @@ pub fn frame_count(scene: &Scene, limit: Option<usize>) -> usize {
     limit.map_or(n, |l| n.min(l)).max(1)
 }
 
-/// Run the variants `which` of `bench` on every sequence for `seeds` seeds.
+/// Run the variants `which` of `bench` on every sequence for `seeds` seeds; `progress`
+/// receives a line as each sequence and seed is done (the whole section takes minutes).
 pub fn run_odometry(
     sensor: &SensorConfig,
     bench: &Bench,
@@ -121,11 +122,22 @@ pub fn run_odometry(
     seed: u64,
     seeds: usize,
     limit: Option<usize>,
+    progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Vec<OdometryRow>, EvalError> {
     let mid = crate::score::mid_frame_s(sensor);
     let mut rows = Vec::new();
-    for file in &SEQUENCES {
+    let (start, runs) = (std::time::Instant::now(), SEQUENCES.len() * seeds);
+    for (s, file) in SEQUENCES.iter().enumerate() {
         for k in 0..seeds {
+            let done = s * seeds + k + 1;
+            let report = |frames: usize| {
+                progress(&format!(
+                    "   odometry {done}/{runs}: {} seed {} of {seeds}, {frames} frames ({:.0} s)",
+                    file.name,
+                    k + 1,
+                    start.elapsed().as_secs_f64()
+                ))
+            };
             let mut scene = file.scene()?;
             scene.seed = mix(mix(mix(seed, SEED_STREAM), scene.seed), k as u64);
             let sim = Simulation::new(&scene, sensor)?;
@@ -271,6 +283,7 @@ pub fn run_odometry(
                     failure,
                 });
             }
+            report(n);
         }
     }
     Ok(rows)
