@@ -465,8 +465,9 @@ pub(super) fn goals(e: &Evaluation) -> Vec<Goal> {
 fn odometry_goals(e: &Evaluation, out: &mut Vec<Goal>) {
     // The goals are the paper's four sequences'; their realistic-surface twins are reported
     // beside them in the drift goals' details.
+    type Summary = super::odometry::OdometrySummary;
     let paper = &super::odometry::SEQUENCES[..super::odometry::PAPER_SEQUENCES];
-    let rows = |v: &str, twins: bool| -> Vec<&super::odometry::OdometrySummary> {
+    let rows = |v: &str, twins: bool| -> Vec<&Summary> {
         e.odometry_summary
             .iter()
             .filter(|s| s.variant == v)
@@ -478,30 +479,17 @@ fn odometry_goals(e: &Evaluation, out: &mut Vec<Goal>) {
         return;
     }
     let (dbe_twins, fft_twins) = (rows(names::DBE, true), rows(names::FFT, true));
-    let twins = |f: &dyn Fn(
-        &super::odometry::OdometrySummary,
-        Option<&super::odometry::OdometrySummary>,
-    ) -> String| {
-        match dbe_twins.is_empty() {
-            true => String::new(),
-            false => format!(
-                "; with realistic surfaces (not part of the goal): {}",
-                dbe_twins
-                    .iter()
-                    .map(|d| {
-                        let other = fft_twins.iter().find(|f| f.sequence == d.sequence).copied();
-                        format!("{} {}", d.sequence, f(d, other))
-                    })
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        }
-    };
-    let list = |f: &dyn Fn(&super::odometry::OdometrySummary) -> String| {
-        dbe.iter()
+    let list_of = |rows: &[&Summary], f: &dyn Fn(&Summary) -> String| {
+        rows.iter()
             .map(|s| format!("{} {}", s.sequence, f(s)))
             .collect::<Vec<_>>()
             .join(", ")
+    };
+    let list = |f: &dyn Fn(&Summary) -> String| list_of(&dbe, f);
+    // The twins' part of a detail, empty without twins.
+    let twins = |text: String| match text.is_empty() {
+        true => text,
+        false => format!("; with realistic surfaces (not part of the goal): {text}"),
     };
     let worst = dbe
         .iter()
@@ -542,28 +530,30 @@ fn odometry_goals(e: &Evaluation, out: &mut Vec<Goal>) {
             }
         ),
     });
-    let pairs: Vec<(f64, f64, &str)> = dbe
-        .iter()
-        .filter_map(|d| {
-            let f = fft.iter().find(|f| f.sequence == d.sequence)?;
-            Some((d.drift.xyz_pct, f.drift.xyz_pct, d.sequence.as_str()))
-        })
-        .collect();
+    // (DBE drift, FFT drift, sequence) of every DBE row with an FFT row.
+    let pair_up = |dbe: &[&'_ Summary], fft: &[&'_ Summary]| -> Vec<(f64, f64, String)> {
+        dbe.iter()
+            .filter_map(|d| {
+                let f = fft.iter().find(|f| f.sequence == d.sequence)?;
+                Some((d.drift.xyz_pct, f.drift.xyz_pct, d.sequence.clone()))
+            })
+            .collect()
+    };
+    let versus = |pairs: &[(f64, f64, String)]| {
+        pairs
+            .iter()
+            .map(|(d, f, s)| format!("{s} {d:.2} vs {f:.2}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let pairs = pair_up(&dbe, &fft);
     out.push(Goal {
         goal: "DBE-fed odometry drifts less than FFT-fed on every sequence".into(),
         met: !pairs.is_empty() && pairs.iter().all(|(d, f, _)| d < f),
         detail: format!(
             "XYZ drift, % of the path, DBE vs FFT (mean over seeds): {}{}",
-            pairs
-                .iter()
-                .map(|(d, f, s)| format!("{s} {d:.2} vs {f:.2}"))
-                .collect::<Vec<_>>()
-                .join(", "),
-            twins(&|d, f| format!(
-                "{:.2} vs {}",
-                d.drift.xyz_pct,
-                f.map_or("–".to_string(), |f| format!("{:.2}", f.drift.xyz_pct))
-            ))
+            versus(&pairs),
+            twins(versus(&pair_up(&dbe_twins, &fft_twins)))
         ),
     });
     let max = dbe.iter().map(|s| s.drift.xyz_pct).fold(0.0, f64::max);
@@ -573,7 +563,10 @@ fn odometry_goals(e: &Evaluation, out: &mut Vec<Goal>) {
         detail: format!(
             "{}{}",
             list(&|s| format!("{:.2} %", s.drift.xyz_pct)),
-            twins(&|d, _| format!("{:.2} %", d.drift.xyz_pct))
+            twins(list_of(&dbe_twins, &|d| format!(
+                "{:.2} %",
+                d.drift.xyz_pct
+            )))
         ),
     });
 }

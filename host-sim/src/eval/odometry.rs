@@ -129,15 +129,6 @@ pub fn run_odometry(
     let (start, runs) = (std::time::Instant::now(), SEQUENCES.len() * seeds);
     for (s, file) in SEQUENCES.iter().enumerate() {
         for k in 0..seeds {
-            let done = s * seeds + k + 1;
-            let report = |frames: usize| {
-                progress(&format!(
-                    "   odometry {done}/{runs}: {} seed {} of {seeds}, {frames} frames ({:.0} s)",
-                    file.name,
-                    k + 1,
-                    start.elapsed().as_secs_f64()
-                ))
-            };
             let mut scene = file.scene()?;
             scene.seed = mix(mix(mix(seed, SEED_STREAM), scene.seed), k as u64);
             let sim = Simulation::new(&scene, sensor)?;
@@ -283,7 +274,13 @@ pub fn run_odometry(
                     failure,
                 });
             }
-            report(n);
+            progress(&format!(
+                "   odometry {}/{runs}: {} seed {} of {seeds}, {n} frames ({:.0} s)",
+                s * seeds + k + 1,
+                file.name,
+                k + 1,
+                start.elapsed().as_secs_f64()
+            ));
         }
     }
     Ok(rows)
