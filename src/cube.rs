@@ -88,6 +88,32 @@ pub struct ChirpId {
     pub tx_slot: u8,
 }
 
+impl ChirpId {
+    /// The `i`-th chirp of a frame in TDM order with `tx` slots: loop `i / tx`, slot
+    /// `i % tx` (loop 0 slot 0, loop 0 slot 1, …, loop 1 slot 0, …), the order
+    /// [`crate::Frontend::push_chirp`] takes. `tx = 0` gives loop 0 slot 0; the loop index
+    /// wraps beyond `u16::MAX` (a frontend holds at most `i16::MAX` loops).
+    pub const fn in_tdm_order(i: usize, tx: usize) -> Self {
+        if tx == 0 {
+            return Self {
+                loop_index: 0,
+                tx_slot: 0,
+            };
+        }
+        Self {
+            loop_index: (i / tx) as u16,
+            tx_slot: (i % tx) as u8,
+        }
+    }
+}
+
+/// Every chirp of a frame of `loops` loops with `tx` TX slots, in TDM order
+/// ([`ChirpId::in_tdm_order`] of `0..loops·tx`; [`crate::Frontend::tdm_order`] for a
+/// frontend's own shape).
+pub fn tdm_order(loops: usize, tx: usize) -> impl Iterator<Item = ChirpId> + Clone {
+    (0..loops.saturating_mul(tx)).map(move |i| ChirpId::in_tdm_order(i, tx))
+}
+
 impl fmt::Display for ChirpId {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "loop {} TX slot {}", self.loop_index, self.tx_slot)
@@ -670,6 +696,31 @@ fn quantise(x: f32) -> i16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The order `tdm_order` lists is the one `accept` takes, chirp by chirp to the end of
+    /// the frame, and nothing after it; no TX slots give no chirps and never divide by zero.
+    #[test]
+    fn tdm_order_is_the_order_the_cube_accepts() {
+        const K: usize = 4;
+        let mut storage = [[[[0i16; 2]; 6]; K]; 2];
+        let mut cube = Cube::<2, K, 6>::new(&mut storage);
+        let order: Vec<ChirpId> = tdm_order(K, 3).collect();
+        assert_eq!(order.len(), K * 3);
+        assert_eq!(
+            order[5],
+            ChirpId {
+                loop_index: 1,
+                tx_slot: 2
+            }
+        );
+        for (i, &id) in order.iter().enumerate() {
+            assert_eq!(id, ChirpId::in_tdm_order(i, 3));
+            assert_eq!(cube.accept(id, 3), Some(usize::from(id.loop_index)), "{id}");
+        }
+        assert_eq!(cube.accept(ChirpId::in_tdm_order(K * 3, 3), 3), None);
+        assert_eq!(tdm_order(K, 0).count(), 0);
+        assert_eq!(ChirpId::in_tdm_order(7, 0), ChirpId::default());
+    }
 
     /// The lanes store writes the same mantissas and exponents as one `store` per row, for
     /// spectra of very different scales, a zero one, and (the checked path) an infinite or a

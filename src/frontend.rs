@@ -281,6 +281,20 @@ impl<
         self.waveform.doppler_bin_mps(N, K, TX) as f32
     }
 
+    /// The frame's `K · TX` chirps in the TDM order [`Self::push_chirp`] and its siblings
+    /// take them: loop 0 slot 0, loop 0 slot 1, …, loop 1 slot 0, …
+    ///
+    /// ```
+    /// use dbe_radar::{presets::coloradar as p, ChirpId};
+    /// let frontend = p::frontend().unwrap();
+    /// let order: Vec<ChirpId> = frontend.tdm_order().collect();
+    /// assert_eq!(order.len(), p::LOOPS * p::TX);
+    /// assert_eq!(order[4], ChirpId { loop_index: 1, tx_slot: 1 });
+    /// ```
+    pub fn tdm_order(&self) -> impl Iterator<Item = ChirpId> + Clone {
+        crate::cube::tdm_order(K, TX)
+    }
+
     /// Ingest one chirp: `chirp[rx][sample] = [I, Q]` of TX slot `id.tx_slot` in loop
     /// `id.loop_index`, as the ADC delivers it. Chirps must come in TDM order (loop 0 slot 0,
     /// loop 0 slot 1, …); any other chirp is not stored and makes the frame an error (returned

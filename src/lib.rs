@@ -19,7 +19,7 @@
 //! panics.
 //!
 //! ```
-//! use dbe_radar::{presets::coloradar as p, Chain, ChirpId};
+//! use dbe_radar::{presets::coloradar as p, Chain};
 //!
 //! let frontend = p::frontend().unwrap();
 //! let dbe = p::dbe(&frontend).unwrap();
@@ -29,10 +29,8 @@
 //! let mut work = Box::new(p::Workspace::new());
 //! let mut cloud = Box::new(p::PointCloud::new());
 //! let silence: p::Chirp = [[[0, 0]; p::SAMPLES]; p::RX];
-//! for k in 0..p::LOOPS as u16 {
-//!     for t in 0..p::TX as u8 {
-//!         frontend.push_chirp(&mut cube, ChirpId { loop_index: k, tx_slot: t }, &silence).unwrap();
-//!     }
+//! for id in frontend.tdm_order() {
+//!     frontend.push_chirp(&mut cube, id, &silence).unwrap();
 //! }
 //! dbe.process(&frontend.frame(&cube).unwrap(), &mut work, &mut cloud);
 //! // An all-zero frame has no positive-definite covariance: every bin is skipped, no points.

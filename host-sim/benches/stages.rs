@@ -16,7 +16,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use dbe_radar::presets::coloradar as p;
-use dbe_radar::{Chain, ChirpId};
+use dbe_radar::Chain;
 use host_sim::frame::AdcFrame;
 use host_sim::sensor::SensorConfig;
 use host_sim::sim::{Scene, Simulation};
@@ -46,11 +46,7 @@ fn chirps(frame: &AdcFrame) -> Vec<p::Chirp> {
 
 fn ingest(frontend: &p::Frontend, cube: &mut p::Cube<'_>, chirps: &[p::Chirp]) {
     cube.begin_frame();
-    for (i, c) in chirps.iter().enumerate() {
-        let id = ChirpId {
-            loop_index: (i / p::TX) as u16,
-            tx_slot: (i % p::TX) as u8,
-        };
+    for (id, c) in frontend.tdm_order().zip(chirps.iter()) {
         frontend
             .push_chirp(cube, id, c)
             .expect("chirps in TDM order");

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use dbe_radar::cube::CubeStorage;
 use dbe_radar::Chain as DbeChain;
-use dbe_radar::{ChirpId, Complex32, ConfigError, Cube, Dbe, Detection, FrameError, FrameStats};
+use dbe_radar::{Complex32, ConfigError, Cube, Dbe, Detection, FrameError, FrameStats};
 use dbe_radar::{FftChain, FftParams, FftWorkspace, Frontend, Params, PointCloud, Workspace};
 
 use crate::cloud::PointRecord;
@@ -493,22 +493,17 @@ impl<
         let preset = self.preset;
         let start = Instant::now();
         let mut cube = Cube::new(&mut self.storage);
-        for k in 0..K {
-            for t in 0..TX {
-                // The recording's chirp in place, as firmware passes its DMA buffer: a copy
-                // cost 10–15 % of the ingest (issue 13).
-                let rows: &[[[i16; 2]; N]] = bytemuck::try_cast_slice(frame.chirp(k, t))
-                    .map_err(|_| shape_error(preset, frame))?;
-                let chirp: &[[[i16; 2]; N]; RX] =
-                    rows.try_into().map_err(|_| shape_error(preset, frame))?;
-                let id = ChirpId {
-                    loop_index: k as u16,
-                    tx_slot: t as u8,
-                };
-                self.frontend
-                    .push_chirp(&mut cube, id, chirp)
-                    .map_err(CoreRunError::Frame)?;
-            }
+        for id in self.frontend.tdm_order() {
+            let (k, t) = (usize::from(id.loop_index), usize::from(id.tx_slot));
+            // The recording's chirp in place, as firmware passes its DMA buffer: a copy cost
+            // 10–15 % of the ingest (issue 13).
+            let rows: &[[[i16; 2]; N]] = bytemuck::try_cast_slice(frame.chirp(k, t))
+                .map_err(|_| shape_error(preset, frame))?;
+            let chirp: &[[[i16; 2]; N]; RX] =
+                rows.try_into().map_err(|_| shape_error(preset, frame))?;
+            self.frontend
+                .push_chirp(&mut cube, id, chirp)
+                .map_err(CoreRunError::Frame)?;
         }
         let checked = self.frontend.frame(&cube).map_err(CoreRunError::Frame)?;
         let t_ingest = start.elapsed();

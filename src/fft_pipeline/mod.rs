@@ -234,7 +234,7 @@ impl<const N: usize, const K: usize, const M: usize, const DET: usize> Default
 /// `NEL` elevation grid bins (used only to label points), `DET` detections per frame.
 ///
 /// ```
-/// use dbe_radar::{presets::coloradar as p, Chain, ChirpId};
+/// use dbe_radar::{presets::coloradar as p, Chain};
 ///
 /// let frontend = p::frontend().unwrap();
 /// let chain = p::fft_chain(&frontend).unwrap();
@@ -244,10 +244,8 @@ impl<const N: usize, const K: usize, const M: usize, const DET: usize> Default
 /// let mut work = Box::new(p::FftWorkspace::new());
 /// let mut cloud = Box::new(p::PointCloud::new());
 /// let silence: p::Chirp = [[[0, 0]; p::SAMPLES]; p::RX];
-/// for k in 0..p::LOOPS as u16 {
-///     for t in 0..p::TX as u8 {
-///         frontend.push_chirp(&mut cube, ChirpId { loop_index: k, tx_slot: t }, &silence).unwrap();
-///     }
+/// for id in frontend.tdm_order() {
+///     frontend.push_chirp(&mut cube, id, &silence).unwrap();
 /// }
 /// chain.process(&frontend.frame(&cube).unwrap(), &mut work, &mut cloud);
 /// // An all-zero frame has an all-zero range–Doppler map: no detection, no point.

@@ -131,10 +131,7 @@ fn gauss(rng: &mut impl Rng) -> f64 {
 
 /// Chirp id of the `i`-th chirp in TDM order.
 pub fn id(i: usize, tx: usize) -> ChirpId {
-    ChirpId {
-        loop_index: (i / tx) as u16,
-        tx_slot: (i % tx) as u8,
-    }
+    ChirpId::in_tdm_order(i, tx)
 }
 
 /// Heap storage for a cube (never on the test thread's stack).
