@@ -241,10 +241,7 @@ impl<'a, const N: usize, const K: usize, const M: usize> Cube<'a, N, K, M> {
             self.error = Some(FrameError::TooManyChirps);
             return None;
         }
-        let expected = ChirpId {
-            loop_index: (self.received as usize / tx) as u16,
-            tx_slot: (self.received as usize % tx) as u8,
-        };
+        let expected = ChirpId::in_tdm_order(self.received as usize, tx);
         if id != expected {
             self.error = Some(FrameError::OutOfOrder { expected, got: id });
             return None;
