@@ -271,6 +271,37 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
         }
     }
     assert!(md.contains("## Chamfer distance on sequence maps"));
+    // Per object on the same maps: every scene has its objects; the points assigned to them
+    // are at most the map's (a point farther than the correspondence radius goes to none),
+    // and an object's share of the completeness term is its samples' part of its mean
+    // distance.
+    let objects = json["map_objects"].as_array().ok_or("no map_objects")?;
+    for size in json["map_sizes"].as_array().ok_or("no map_sizes")? {
+        let scene = size["scene"].as_str().unwrap_or_default();
+        let of: Vec<_> = objects.iter().filter(|o| o["scene"] == scene).collect();
+        assert!(!of.is_empty(), "no object rows for {scene}");
+        let samples: f64 = of.iter().filter_map(|o| o["truth_points"].as_f64()).sum();
+        for chain in ["dbe", "fft"] {
+            let assigned: u64 = of
+                .iter()
+                .filter_map(|o| o[format!("{chain}_points")].as_u64())
+                .sum();
+            let map = size[format!("{chain}_points")].as_u64().unwrap_or(0);
+            assert!(assigned <= map, "{scene} {chain}: {assigned} > {map}");
+            for o in &of {
+                let (Some(d), Some(share), Some(n)) = (
+                    o[format!("{chain}_distance_m")].as_f64(),
+                    o[format!("{chain}_share_m")].as_f64(),
+                    o["truth_points"].as_f64(),
+                ) else {
+                    assert_eq!(map, 0, "{scene} {chain}: no distance with a map: {o}");
+                    continue;
+                };
+                assert!((share - d * n / samples).abs() < 1e-9, "{o}");
+            }
+        }
+    }
+    assert!(md.contains("Where the completeness term differs"));
     // Realistic surfaces: every extended scene plain and realistic, both chains measured, and
     // each comparison listed with the scenes where it holds.
     assert!(md.contains("## Realistic surfaces: what changes"));

@@ -179,6 +179,36 @@ fn map_chamfer_goal(e: &Evaluation) -> Goal {
         ("the symmetric distance", symmetric),
     ];
     let met = parts.iter().all(|(_, (w, t, _))| w == t && *t > 0);
+    // For each scene the symmetric distance loses: the object that costs the DBE map most.
+    let mut lost_scenes: Vec<&str> = Vec::new();
+    for r in &e.chamfer_map {
+        let lost = !matches!((r.dbe, r.fft), (Some(d), Some(f)) if d < f);
+        let extended = SCENES[..EXTENDED_SCENES].iter().any(|s| s.name == r.scene);
+        if lost && extended && !lost_scenes.contains(&r.scene.as_str()) {
+            lost_scenes.push(&r.scene);
+        }
+    }
+    let worst: Vec<String> = lost_scenes
+        .iter()
+        .filter_map(|scene| {
+            let o = e
+                .map_objects
+                .iter()
+                .filter(|o| o.scene == *scene)
+                .filter(|o| o.share_difference_m().is_some_and(|d| d > 0.0))
+                .max_by(|a, b| {
+                    let d = |o: &super::maps::ObjectCoverage| o.share_difference_m().unwrap_or(0.0);
+                    d(a).total_cmp(&d(b))
+                })?;
+            Some(format!(
+                "{scene}: {} ({} DBE vs {} FFT map points, completeness share +{:.3} m)",
+                o.object,
+                o.dbe_points,
+                o.fft_points,
+                o.share_difference_m().unwrap_or(0.0)
+            ))
+        })
+        .collect();
     let detail = parts
         .iter()
         .map(|(what, (w, t, lost))| {
@@ -194,7 +224,15 @@ fn map_chamfer_goal(e: &Evaluation) -> Goal {
         goal: "DBE below FFT in every Chamfer cell on the sequence maps: the paper's protocol (τ) and the symmetric distance (resolution)".into(),
         met,
         detail: format!(
-            "{detail}. At small τ the paper's CD(τ) counts how many points lie very close more than how far the rest are (Chamfer section, caveat)"
+            "{detail}. At small τ the paper's CD(τ) counts how many points lie very close more than how far the rest are (Chamfer section, caveat){}",
+            if worst.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    ". The object that costs the DBE map most where the symmetric distance is lost: {}",
+                    worst.join("; ")
+                )
+            }
         ),
     }
 }

@@ -270,6 +270,129 @@ pub fn map_rows(
     (paper, sym, sizes)
 }
 
+/// Where on one scene's sequence map a chain's points lie and how well they cover each scene
+/// object: the completeness term of the symmetric distance split by object, the finest
+/// resolution of the maps ([`MAP_VOXEL_M`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ObjectCoverage {
+    /// Scene.
+    pub scene: String,
+    /// Scene object (its name in the scene file).
+    pub object: String,
+    /// The object's truth map points (its own samples, voxel-downsampled at [`MAP_VOXEL_M`]).
+    pub truth_points: usize,
+    /// Points of the DBE map whose nearest truth point is this object's, within
+    /// [`CORRESPONDENCE_M`].
+    pub dbe_points: usize,
+    /// The same for the FFT map.
+    pub fft_points: usize,
+    /// Mean distance of the object's truth points to the DBE map, m (`None`: empty map).
+    pub dbe_distance_m: Option<f64>,
+    /// The same for the FFT map.
+    pub fft_distance_m: Option<f64>,
+    /// The object's part of the DBE map's completeness term: its truth points times their
+    /// mean distance over all the scene's labelled truth points, m. A scene's parts add up
+    /// to that term, which is twice what it adds to the symmetric distance.
+    pub dbe_share_m: Option<f64>,
+    /// The same for the FFT map.
+    pub fft_share_m: Option<f64>,
+}
+
+impl ObjectCoverage {
+    /// DBE share minus FFT share, m (positive: the object costs the DBE map more).
+    pub fn share_difference_m(&self) -> Option<f64> {
+        Some(self.dbe_share_m? - self.fft_share_m?)
+    }
+}
+
+/// [`ObjectCoverage`] of every object with truth points in each scene of `frames`, from the
+/// variants at indices `dbe` and `fft`, in the order the scenes' objects come.
+pub fn object_rows(frames: &[SceneFrame], dbe: usize, fft: usize) -> Vec<ObjectCoverage> {
+    let mut scenes: Vec<&'static str> = Vec::new();
+    for f in frames {
+        if !scenes.contains(&f.scene) {
+            scenes.push(f.scene);
+        }
+    }
+    let mut rows = Vec::new();
+    for scene in scenes {
+        let of: Vec<&SceneFrame> = frames.iter().filter(|f| f.scene == scene).collect();
+        // Each object's truth samples over the frames, downsampled on their own.
+        let mut objects: Vec<(String, Vec<P3>)> = Vec::new();
+        for f in &of {
+            for (p, &k) in f.truth_world.iter().zip(&f.truth_object) {
+                let Some(name) = f.objects.get(k) else {
+                    continue;
+                };
+                match objects.iter_mut().find(|(n, _)| n == name) {
+                    Some((_, pts)) => pts.push(*p),
+                    None => objects.push((name.clone(), vec![*p])),
+                }
+            }
+        }
+        for (_, pts) in objects.iter_mut() {
+            *pts = voxel_downsample(pts, MAP_VOXEL_M);
+        }
+        let labelled: usize = objects.iter().map(|(_, p)| p.len()).sum();
+        let key = |p: &P3| p.map(f64::to_bits);
+        let owner: std::collections::HashMap<[u64; 3], usize> = objects
+            .iter()
+            .enumerate()
+            .flat_map(|(k, (_, pts))| pts.iter().map(move |p| (key(p), k)))
+            .collect();
+        let all: Vec<P3> = objects
+            .iter()
+            .flat_map(|(_, p)| p.iter().copied())
+            .collect();
+        let truth_tree = KdTree::new(&all);
+        let per_chain = |v: usize| {
+            let map = voxel_downsample(
+                &of.iter()
+                    .filter_map(|f| f.metrics.get(v).and_then(Option::as_ref))
+                    .flat_map(|m| m.cloud_world.iter().copied())
+                    .collect::<Vec<_>>(),
+                MAP_VOXEL_M,
+            );
+            let mut counts = vec![0usize; objects.len()];
+            for p in &map {
+                if let Some((q, d)) = truth_tree.nearest(p) {
+                    if let (true, Some(&k)) = (d <= CORRESPONDENCE_M, owner.get(&key(&q))) {
+                        counts[k] += 1;
+                    }
+                }
+            }
+            let tree = KdTree::new(&map);
+            let distances: Vec<Option<f64>> = objects
+                .iter()
+                .map(|(_, pts)| {
+                    let sum = pts
+                        .iter()
+                        .map(|p| tree.nearest_distance(p))
+                        .sum::<Option<f64>>()?;
+                    (!pts.is_empty()).then(|| sum / pts.len() as f64)
+                })
+                .collect();
+            (counts, distances)
+        };
+        let chains = [per_chain(dbe), per_chain(fft)];
+        for (k, (name, pts)) in objects.iter().enumerate() {
+            let share = |c: usize| chains[c].1[k].map(|d| d * pts.len() as f64 / labelled as f64);
+            rows.push(ObjectCoverage {
+                scene: scene.to_string(),
+                object: name.clone(),
+                truth_points: pts.len(),
+                dbe_points: chains[0].0[k],
+                fft_points: chains[1].0[k],
+                dbe_distance_m: chains[0].1[k],
+                fft_distance_m: chains[1].1[k],
+                dbe_share_m: share(0),
+                fft_share_m: share(1),
+            });
+        }
+    }
+    rows
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -336,6 +459,67 @@ mod tests {
         // the 2 cm sampling, the normal error goes.
         assert!(before > 0.04, "{before}");
         assert!(after < 0.015, "{after}");
+    }
+
+    /// Two walls, one map on the first only, the other on both: each map's points go to the
+    /// wall they lie on, the uncovered wall carries the first map's completeness, and the
+    /// shares add up to the completeness term of the whole truth.
+    #[test]
+    fn object_rows_split_the_completeness_by_object() {
+        use super::super::scenarios::{SceneFrame, SceneFrameMetrics};
+        let a = wall();
+        let b: Vec<P3> = wall().iter().map(|p| [p[0] + 3.0, p[1], p[2]]).collect();
+        let on = |w: &[P3]| -> Vec<P3> { w.iter().step_by(97).copied().collect() };
+        let metrics = |cloud: Vec<P3>| {
+            Some(SceneFrameMetrics {
+                points: cloud.len(),
+                false_points: 0,
+                chamfer: Vec::new(),
+                targets: Vec::new(),
+                cloud_world: cloud,
+            })
+        };
+        let frame = SceneFrame {
+            scene: "two_walls",
+            index: 0,
+            truth_points: a.len() + b.len(),
+            truth_world: a.iter().chain(&b).copied().collect(),
+            truth_object: [vec![0; a.len()], vec![1; b.len()]].concat(),
+            objects: vec!["a".into(), "b".into()],
+            metrics: vec![
+                metrics(on(&a)),
+                metrics(on(&a).into_iter().chain(on(&b)).collect()),
+            ],
+        };
+        let rows = object_rows(&[frame], 0, 1);
+        assert_eq!(rows.len(), 2);
+        let (ra, rb) = (&rows[0], &rows[1]);
+        assert_eq!((ra.object.as_str(), rb.object.as_str()), ("a", "b"));
+        assert_eq!((ra.truth_points, rb.truth_points), (a.len(), b.len()));
+        assert_eq!((ra.dbe_points, rb.dbe_points), (on(&a).len(), 0));
+        assert_eq!((ra.fft_points, rb.fft_points), (on(&a).len(), on(&b).len()));
+        // Wall b is 3 m behind wall a: the first map is at least that far from all of it.
+        assert!(rb.dbe_distance_m.unwrap_or(0.0) >= 3.0);
+        assert!(rb.fft_distance_m.unwrap_or(9.0) < 0.5);
+        assert!(rb.share_difference_m().unwrap_or(0.0) > 1.0);
+        // The shares add up to the mean distance of all truth points to each map.
+        type Share = fn(&ObjectCoverage) -> Option<f64>;
+        let shares: [(usize, Share); 2] = [(0, |r| r.dbe_share_m), (1, |r| r.fft_share_m)];
+        for (v, share) in shares {
+            let map: Vec<P3> = match v {
+                0 => on(&a),
+                _ => on(&a).into_iter().chain(on(&b)).collect(),
+            };
+            let tree = KdTree::new(&map);
+            let truth: Vec<P3> = a.iter().chain(&b).copied().collect();
+            let term = truth
+                .iter()
+                .filter_map(|p| tree.nearest_distance(p))
+                .sum::<f64>()
+                / truth.len() as f64;
+            let sum: f64 = rows.iter().filter_map(share).sum();
+            assert!((sum - term).abs() < 1e-9, "chain {v}: {sum} vs {term}");
+        }
     }
 
     #[test]

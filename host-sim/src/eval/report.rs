@@ -6,7 +6,7 @@
 //! | file | content |
 //! |---|---|
 //! | `report.md` | definitions, tables, charts, goals, defaults |
-//! | `summary.json` | the whole [`Evaluation`] (`chamfer`: the headline per-frame Chamfer table; `chamfer_paper` and `chamfer_map`: the paper's protocol and the symmetric distance on sequence maps, [`super::maps`]) |
+//! | `summary.json` | the whole [`Evaluation`] (`chamfer`: the headline per-frame Chamfer table; `chamfer_paper` and `chamfer_map`: the paper's protocol and the symmetric distance on sequence maps, `map_objects`: their points and completeness per scene object, [`super::maps`]) |
 //! | `accuracy.csv` | single target: detection rate, RMSEs, biases, CRB per SNR and variant |
 //! | `resolution.csv` | two targets: resolution probability per case and variant |
 //! | `noise_only.csv` | false points per noise-only frame |
@@ -43,6 +43,14 @@ pub fn write_report(eval: &Evaluation, dir: &Path) -> Result<(), EvalError> {
 fn f(v: Option<f64>, digits: usize) -> String {
     match v {
         Some(x) if x.is_finite() => format!("{x:.digits$}"),
+        _ => "–".to_string(),
+    }
+}
+
+/// `f` with a sign on positive values.
+fn signed(v: Option<f64>, digits: usize) -> String {
+    match v {
+        Some(x) if x.is_finite() => format!("{x:+.digits$}"),
         _ => "–".to_string(),
     }
 }
@@ -597,6 +605,48 @@ fn map_chamfer_section(m: &mut String, e: &Evaluation) {
             );
         }
         let _ = writeln!(m);
+    }
+    let _ = writeln!(m);
+    object_coverage_table(m, e);
+}
+
+/// Objects whose coverage differs most between the chains' maps, per scene
+/// ([`super::maps::ObjectCoverage`]).
+fn object_coverage_table(m: &mut String, e: &Evaluation) {
+    use super::maps::{CORRESPONDENCE_M, MAP_VOXEL_M};
+    const SHOWN: usize = 3;
+    let _ = writeln!(m, "Where the completeness term differs: each scene object's truth samples \
+        ({MAP_VOXEL_M} m voxels), the map points whose nearest truth point is the object's (within \
+        {CORRESPONDENCE_M} m), the mean distance from the object's samples to each map, and the object's part of \
+        the completeness term (its samples × that mean / all samples; half of it goes into the symmetric \
+        distance), DBE − FFT (positive: the object costs the DBE map more). The {SHOWN} objects of each scene with \
+        the largest difference either way; every object is in `summary.json` (`map_objects`):\n");
+    let _ = writeln!(m, "| scene | object | truth samples | DBE points | FFT points | DBE mean distance (m) | FFT mean distance (m) | share DBE − FFT (m) |");
+    let _ = writeln!(m, "|---|---|---|---|---|---|---|---|");
+    for s in &e.map_sizes {
+        let mut rows: Vec<&super::maps::ObjectCoverage> = e
+            .map_objects
+            .iter()
+            .filter(|o| o.scene == s.scene && o.share_difference_m().is_some())
+            .collect();
+        rows.sort_by(|a, b| {
+            let d = |o: &super::maps::ObjectCoverage| o.share_difference_m().map_or(0.0, f64::abs);
+            d(b).total_cmp(&d(a))
+        });
+        for o in rows.into_iter().take(SHOWN) {
+            let _ = writeln!(
+                m,
+                "| {} | {} | {} | {} | {} | {} | {} | {} |",
+                o.scene,
+                o.object,
+                o.truth_points,
+                o.dbe_points,
+                o.fft_points,
+                f(o.dbe_distance_m, 3),
+                f(o.fft_distance_m, 3),
+                signed(o.share_difference_m(), 3)
+            );
+        }
     }
     let _ = writeln!(m);
 }

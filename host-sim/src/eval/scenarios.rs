@@ -649,6 +649,10 @@ pub struct SceneFrame {
     pub truth_points: usize,
     /// Those truth points in the world frame (as [`SceneFrameMetrics::cloud_world`]).
     pub truth_world: Vec<P3>,
+    /// The scene object each truth point belongs to, an index into [`Self::objects`].
+    pub truth_object: Vec<usize>,
+    /// The frame's scene objects by name (the frame truth's order).
+    pub objects: Vec<String>,
     /// Per variant, `None` when not run.
     pub metrics: Vec<Option<SceneFrameMetrics>>,
 }
@@ -682,8 +686,12 @@ pub fn run_scenes(
         // point of an object moves with the object's relative velocity at its centre.
         let t = ctx.t_mid_s;
         let mut truth: Vec<P3> = Vec::new();
+        let mut truth_object = Vec::new();
         let mut point_targets = Vec::new();
-        for o in frame.truth.objects.iter().filter(|o| o.visible) {
+        for (k, o) in frame.truth.objects.iter().enumerate() {
+            if !o.visible {
+                continue;
+            }
             let shift = |q: &P3| std::array::from_fn(|i| q[i] + o.velocity[i] * t);
             if o.kind == ObjectKind::Point {
                 let at: P3 = shift(&o.position);
@@ -692,6 +700,7 @@ pub fn run_scenes(
             } else {
                 truth.extend(o.surface_points.iter().map(shift));
             }
+            truth_object.resize(truth.len(), k);
         }
         let full_tree = KdTree::new(&truth);
         let to_world = world_transform(&frame.truth.sensor);
@@ -749,6 +758,8 @@ pub fn run_scenes(
             index,
             truth_points: truth.len(),
             truth_world: truth.iter().map(&to_world).collect(),
+            truth_object,
+            objects: frame.truth.objects.iter().map(|o| o.name.clone()).collect(),
             metrics,
         })
     })

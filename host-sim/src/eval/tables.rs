@@ -245,6 +245,8 @@ pub struct Evaluation {
     pub chamfer_map: Vec<super::maps::MapChamferRow>,
     /// Sizes of those maps and the ICP correction.
     pub map_sizes: Vec<super::maps::MapSize>,
+    /// Per scene object: the maps' points on it and its part of their completeness.
+    pub map_objects: Vec<super::maps::ObjectCoverage>,
     /// The extended scenes with plain and realistic surfaces side by side
     /// ([`super::surfaces`]).
     pub surfaces: Vec<super::surfaces::SurfaceRow>,
@@ -331,6 +333,7 @@ impl Evaluation {
             index(names::FFT)?,
             &config.resolutions_m,
         );
+        let map_objects = super::maps::object_rows(scenes, index(names::DBE)?, index(names::FFT)?);
         let scene_rows = scene_rows(&variants, scenes);
         let chamfer = config
             .resolutions_m
@@ -388,6 +391,7 @@ impl Evaluation {
             chamfer_paper,
             chamfer_map,
             map_sizes,
+            map_objects,
             surfaces: Vec::new(),
             surface_conclusions: Vec::new(),
             scenes: scene_rows,
