@@ -199,6 +199,17 @@ pub struct MapSize {
     pub fft_icp_shift_m: Option<f64>,
 }
 
+/// The scenes of `frames`, each once, in the order they first come.
+fn scenes_in(frames: &[SceneFrame]) -> Vec<&'static str> {
+    let mut scenes: Vec<&'static str> = Vec::new();
+    for f in frames {
+        if !scenes.contains(&f.scene) {
+            scenes.push(f.scene);
+        }
+    }
+    scenes
+}
+
 /// Both metrics for every scene of `frames`, from the variants at indices `dbe` and `fft`,
 /// the symmetric one at each of `resolutions`.
 pub fn map_rows(
@@ -207,12 +218,7 @@ pub fn map_rows(
     fft: usize,
     resolutions: &[f64],
 ) -> (Vec<PaperChamferRow>, Vec<MapChamferRow>, Vec<MapSize>) {
-    let mut scenes: Vec<&'static str> = Vec::new();
-    for f in frames {
-        if !scenes.contains(&f.scene) {
-            scenes.push(f.scene);
-        }
-    }
+    let scenes = scenes_in(frames);
     let (mut paper, mut sym, mut sizes) = (Vec::new(), Vec::new(), Vec::new());
     for scene in scenes {
         let of: Vec<&SceneFrame> = frames.iter().filter(|f| f.scene == scene).collect();
@@ -308,12 +314,7 @@ impl ObjectCoverage {
 /// [`ObjectCoverage`] of every object with truth points in each scene of `frames`, from the
 /// variants at indices `dbe` and `fft`, in the order the scenes' objects come.
 pub fn object_rows(frames: &[SceneFrame], dbe: usize, fft: usize) -> Vec<ObjectCoverage> {
-    let mut scenes: Vec<&'static str> = Vec::new();
-    for f in frames {
-        if !scenes.contains(&f.scene) {
-            scenes.push(f.scene);
-        }
-    }
+    let scenes = scenes_in(frames);
     let mut rows = Vec::new();
     for scene in scenes {
         let of: Vec<&SceneFrame> = frames.iter().filter(|f| f.scene == scene).collect();
