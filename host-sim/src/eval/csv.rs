@@ -141,12 +141,12 @@ pub(super) fn csv_files(e: &Evaluation) -> Vec<(&'static str, String)> {
             r.chamfer_frames
         );
     }
-    let mut odo = String::from("sequence,seed,variant,frames,points_per_frame,ego_rmse_x_mps,ego_rmse_y_mps,ego_rmse_z_mps,estimated_while_moving_pct,updates_applied,updates_gated,point_frames,points_applied,points_gated,path_length_m,ate_rmse_m,drift_xyz_m,drift_xyz_pct,drift_xy_pct,drift_z_pct,drift_yaw_deg,drift_xyz_pct_without_point_updates,drift_xyz_pct_moving_start,zero_rate_updates,drift_xyz_pct_without_zero_rate,drift_xyz_pct_moving_start_without_zero_rate,time_offset_s,drift_xyz_pct_stamp_test_fixed,drift_xyz_pct_stamp_test_estimated,ate_m_stamp_test_fixed,ate_m_stamp_test_estimated,time_offset_stamp_test_s,velocity_scale,drift_xyz_pct_fixed_scale,ate_m_fixed_scale,relative_pct_10,relative_pct_20,relative_pct_30\n");
+    let mut odo = String::from("sequence,seed,variant,frames,points_per_frame,ego_rmse_x_mps,ego_rmse_y_mps,ego_rmse_z_mps,estimated_while_moving_pct,updates_applied,updates_gated,point_frames,points_applied,points_gated,path_length_m,ate_rmse_m,drift_xyz_m,drift_xyz_pct,drift_xy_pct,drift_z_pct,drift_yaw_deg,drift_xyz_pct_without_point_updates,drift_xyz_pct_moving_start,zero_rate_updates,drift_xyz_pct_without_zero_rate,drift_xyz_pct_moving_start_without_zero_rate,time_offset_s,drift_xyz_pct_stamp_test_fixed,drift_xyz_pct_stamp_test_estimated,ate_m_stamp_test_fixed,ate_m_stamp_test_estimated,time_offset_stamp_test_s,velocity_scale,drift_xyz_pct_fixed_scale,ate_m_fixed_scale,relative_pct_10,relative_pct_20,relative_pct_30,ego_mean_error_x_mps,ego_mean_error_y_mps,ego_mean_error_z_mps\n");
     for r in &e.odometry {
         let t = r.errors.as_ref();
         let _ = writeln!(
             odo,
-            "{},{},{},{},{:.2},{:.4},{:.4},{:.4},{:.1},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{:.2},{:.4},{:.4},{:.4},{:.1},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4}",
             r.sequence,
             r.seed,
             r.variant,
@@ -185,6 +185,9 @@ pub(super) fn csv_files(e: &Evaluation) -> Vec<(&'static str, String)> {
             csv_opt(t.and_then(|t| t.relative.first()).map(|x| x.translation_mean_pct)),
             csv_opt(t.and_then(|t| t.relative.get(1)).map(|x| x.translation_mean_pct)),
             csv_opt(t.and_then(|t| t.relative.get(2)).map(|x| x.translation_mean_pct)),
+            r.ego.mean_error_mps[0],
+            r.ego.mean_error_mps[1],
+            r.ego.mean_error_mps[2],
         );
     }
     vec![

@@ -539,7 +539,8 @@ fn odometry_goals(e: &Evaluation, out: &mut Vec<Goal>) {
         detail: format!(
             "RMSE x/y/z (m/s): {}. What the estimator's own covariance predicts (its σ, RMS \
              over its estimates): {}; where the RMSE matches it, the error is the spread the \
-             points' directions allow (a nearly flat point set observes z poorly), not a bias",
+             points' directions allow (a nearly flat point set observes z poorly), not a bias. \
+             The mean errors (the bias part of the RMSE) x/y/z (m/s): {}",
             list(&|s| format!(
                 "{:.3}/{:.3}/{:.3}",
                 s.ego_rmse_mps[0], s.ego_rmse_mps[1], s.ego_rmse_mps[2]
@@ -547,6 +548,10 @@ fn odometry_goals(e: &Evaluation, out: &mut Vec<Goal>) {
             list(&|s| format!(
                 "{:.3}/{:.3}/{:.3}",
                 s.ego_predicted_rms_mps[0], s.ego_predicted_rms_mps[1], s.ego_predicted_rms_mps[2]
+            )),
+            list(&|s| format!(
+                "{:+.3}/{:+.3}/{:+.3}",
+                s.ego_mean_error_mps[0], s.ego_mean_error_mps[1], s.ego_mean_error_mps[2]
             ))
         ),
     });

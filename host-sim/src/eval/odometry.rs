@@ -323,6 +323,9 @@ pub struct OdometrySummary {
     pub relative_pct: [f64; 3],
     /// Ego-velocity RMSE per axis, m/s (mean).
     pub ego_rmse_mps: [f64; 3],
+    /// Ego-velocity mean error per axis, m/s (mean over seeds;
+    /// [`crate::odometry::EgoErrors::mean_error_mps`]).
+    pub ego_mean_error_mps: [f64; 3],
     /// Share of moving frames with an estimate, % (mean).
     pub estimated_while_moving_pct: f64,
     /// Ego-velocity covariance consistency (mean NEES per axis, 1 = consistent; mean).
@@ -438,6 +441,7 @@ pub fn summarise(rows: &[OdometryRow], dbe: &str, fft: &str) -> Vec<OdometrySumm
                     })
                 }),
                 ego_rmse_mps: [0, 1, 2].map(|i| me(&|r| r.ego.rmse_mps[i])),
+                ego_mean_error_mps: [0, 1, 2].map(|i| me(&|r| r.ego.mean_error_mps[i])),
                 estimated_while_moving_pct: me(&|r| r.ego.estimated_while_moving_pct),
                 ego_nees: me(&|r| r.ego.nees),
                 ego_predicted_rms_mps: [0, 1, 2].map(|i| me(&|r| r.ego.predicted_rms_mps[i])),

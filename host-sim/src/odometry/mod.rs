@@ -104,6 +104,9 @@ pub fn frame_velocities(
 pub struct EgoErrors {
     /// RMSE per radar axis (x, y, z) over the frames with an estimate, m/s.
     pub rmse_mps: [f64; 3],
+    /// Mean error (estimate − truth) per radar axis over the same frames, m/s: the part of
+    /// the RMSE that is a bias.
+    pub mean_error_mps: [f64; 3],
     /// Frames with an estimate (`ok` or `standstill`) and a truth.
     pub frames_compared: usize,
     /// Frames whose true speed exceeds 0.1 m/s.
@@ -125,6 +128,7 @@ pub fn ego_errors(
     truth: impl Fn(f64) -> Option<Vector3<f64>>,
 ) -> EgoErrors {
     let (mut sq, mut n, mut moving, mut moving_ok) = ([0.0f64; 3], 0usize, 0usize, 0usize);
+    let mut sum = [0.0f64; 3];
     let (mut nees, mut n_ok, mut var) = (0.0, 0usize, [0.0f64; 3]);
     for f in frames {
         let Some(t) = truth(f.measure_time_s) else {
@@ -139,6 +143,7 @@ pub fn ego_errors(
             let e = z.velocity - t;
             for i in 0..3 {
                 sq[i] += e[i].powi(2);
+                sum[i] += e[i];
             }
             n += 1;
             if f.ego.status == EgoStatus::Ok {
@@ -160,6 +165,7 @@ pub fn ego_errors(
                 f64::NAN
             }
         }),
+        mean_error_mps: sum.map(|s| if n > 0 { s / n as f64 } else { f64::NAN }),
         frames_compared: n,
         moving_frames: moving,
         estimated_while_moving_pct: if moving > 0 {
@@ -590,10 +596,12 @@ mod tests {
         assert_eq!((e.frames_compared, e.moving_frames), (3, 4));
         assert!((e.estimated_while_moving_pct - 75.0).abs() < 1e-9);
         let rmse = [(0.01f64 + 0.01 + 1.0) / 3.0, 0.04 / 3.0, 0.04 / 3.0].map(f64::sqrt);
+        let mean = [(0.1 - 0.1 - 1.0) / 3.0, 0.2 / 3.0, 0.2 / 3.0];
         let nees = ((0.01 / 0.01 + 0.04 / 0.09) + (0.01 / 0.03 + 0.04 / 0.02)) / 6.0;
         let predicted = [0.02f64, 0.03, 0.08].map(f64::sqrt);
         for i in 0..3 {
             assert!((e.rmse_mps[i] - rmse[i]).abs() < 1e-6, "{e:?}");
+            assert!((e.mean_error_mps[i] - mean[i]).abs() < 1e-6, "{e:?}");
             assert!(
                 (e.predicted_rms_mps[i] - predicted[i]).abs() < 1e-6,
                 "{e:?}"
