@@ -337,6 +337,41 @@ fn readme_ring_split_figures_are_the_committed_report() -> TestResult {
     Ok(())
 }
 
+/// README's sentence on what the DBE map of the outdoor scene lacks names the object with
+/// the largest completeness share difference there (`map_objects`) and its figures.
+#[test]
+fn readme_map_object_figures_are_the_committed_report() -> TestResult {
+    let summary: Value = serde_json::from_str(&read("docs/eval/summary.json")?)?;
+    let readme = one_line(&read("README.md")?);
+    let scene = "outdoor_poles_walls";
+    let diff = |o: &Value| -> Option<f64> {
+        Some(o["dbe_share_m"].as_f64()? - o["fft_share_m"].as_f64()?)
+    };
+    let worst = summary["map_objects"]
+        .as_array()
+        .ok_or("summary.json has no map_objects")?
+        .iter()
+        .filter(|o| o["scene"] == scene)
+        .filter_map(|o| Some((diff(o)?, o)))
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .ok_or(format!("no object rows for {scene}"))?
+        .1;
+    let text = format!(
+        "what the DBE map of {scene} lacks is mostly the {}: {} DBE vs {} FFT map points on it, its \
+         samples {:.3} m from the DBE map on average and {:.3} m from the FFT map's",
+        worst["object"].as_str().unwrap_or_default(),
+        worst["dbe_points"],
+        worst["fft_points"],
+        num(&worst["dbe_distance_m"], "DBE distance")?,
+        num(&worst["fft_distance_m"], "FFT distance")?,
+    );
+    assert!(
+        readme.contains(&text),
+        "README lacks the report's per-object figures\n{text}"
+    );
+    Ok(())
+}
+
 /// README's paragraph on the filter's point updates quotes the report's ablation for every
 /// row that had any, and its verdict per sequence (less drift than FFT, within the seeds'
 /// spread, or more) is the report's.
