@@ -416,6 +416,11 @@ fn parameter_options_take_negative_numbers_and_refuse_absurd_values() -> TestRes
             "90",
             "expected a value in [-10, 60] dB",
         ),
+        (
+            "--doppler-test-db",
+            "61",
+            "--doppler-test-db 61: expected a value in [0, 60] dB",
+        ),
     ] {
         let bad = tmp.path().join(format!("bad{flag}{value}"));
         let err = fails(&["process", s(&seq), "--out", s(&bad), flag, value]);

@@ -396,7 +396,7 @@ fn quick_report_has_every_file_and_the_headline_table() -> Result<(), Box<dyn st
             assert_eq!(r.trials, e.config.trials_per_snr);
         }
     }
-    assert!(!e.defaults.is_empty() && e.recommendations.len() == 11);
+    assert!(!e.defaults.is_empty() && e.recommendations.len() == 12);
     // A report never overwrites an unrelated folder's summary half-way: writing twice works.
     write_report(e, dir.path())?;
     Ok(())

@@ -98,6 +98,10 @@ pub struct ParamArgs {
     /// (`Params::doppler_test_db`).
     #[arg(long)]
     pub no_doppler_test: bool,
+    /// Doppler test threshold, dB, in [0, 60]: how far a detection's azimuth Capon beam must
+    /// peak over its Doppler spectrum's median; 0 turns the test off [default: 12].
+    #[arg(long, value_name = "DB", conflicts_with = "no_doppler_test")]
+    pub doppler_test_db: Option<f32>,
     /// Turn the Doppler agreement off: by default a point whose own Capon beam peaks more than
     /// 1.5 Doppler bins from its detection's azimuth beam is dropped
     /// (`Params::doppler_agreement_bins`).
@@ -115,6 +119,13 @@ impl ParamArgs {
         p.tdm_compensation = !self.no_tdm_compensation && !self.paper;
         if self.no_doppler_test {
             p.doppler_test_db = 0.0;
+        }
+        if let Some(t) = self.doppler_test_db {
+            // The core's own bound (`Params::validate`).
+            if !(0.0..=60.0).contains(&t) {
+                anyhow::bail!("--doppler-test-db {t}: expected a value in [0, 60] dB");
+            }
+            p.doppler_test_db = t;
         }
         if self.no_doppler_agreement {
             p.doppler_agreement_bins = 0.0;

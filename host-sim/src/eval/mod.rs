@@ -263,6 +263,9 @@ pub enum SweepValue {
     CoherentSplit(bool),
     /// The ring split of vertical surfaces' returns (`Params::ring_split`).
     RingSplit(bool),
+    /// CFAR α and Doppler test threshold together, dB (issue 10 §1: the range–azimuth map as
+    /// a candidate stage below its own detection limit, the slow-time test as the detector).
+    Detector(f32, f32),
 }
 
 impl SweepValue {
@@ -280,6 +283,7 @@ impl SweepValue {
             SweepValue::JointElevation(_) => "joint elevation fit",
             SweepValue::CoherentSplit(_) => "coherent split",
             SweepValue::RingSplit(_) => "ring split",
+            SweepValue::Detector(..) => "CFAR α, Doppler test (dB)",
         }
     }
 
@@ -290,6 +294,7 @@ impl SweepValue {
             SweepValue::CfarThreshold(a) => format!("{a}"),
             SweepValue::CfarQuantile(q) => format!("{q}"),
             SweepValue::ElevationPeaks(n, r) => format!("{n}, {r}"),
+            SweepValue::Detector(a, t) => format!("{a}, {t}"),
             SweepValue::DopplerTest(t) => format!("{t}"),
             SweepValue::Coherent(c) => format!("{c}"),
             SweepValue::DopplerAgreement(g) => format!("{g}"),
@@ -319,6 +324,10 @@ impl SweepValue {
             SweepValue::JointElevation(on) => params.joint_elevation = on,
             SweepValue::CoherentSplit(on) => params.coherent_split = on,
             SweepValue::RingSplit(on) => params.ring_split = on,
+            SweepValue::Detector(a, t) => {
+                params.cfar.threshold_db = a;
+                params.doppler_test_db = t;
+            }
         }
         params
     }
@@ -366,6 +375,9 @@ pub fn defaults_sweep() -> Vec<SweepValue> {
     }
     for on in [false, true] {
         v.push(SweepValue::RingSplit(on));
+    }
+    for (a, t) in [(2.0, 12.0), (1.0, 15.0), (1.0, 18.0), (0.5, 18.0)] {
+        v.push(SweepValue::Detector(a, t));
     }
     v
 }
