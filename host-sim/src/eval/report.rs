@@ -479,7 +479,7 @@ fn chamfer_section(m: &mut String, e: &Evaluation) {
     let alphas: Vec<(String, String)> = e
         .defaults
         .iter()
-        .filter(|r| r.parameter.starts_with("CFAR α"))
+        .filter(|r| r.parameter == super::SweepValue::CfarThreshold(0.0).parameter())
         .map(|r| (r.value.clone(), r.variant.clone()))
         .collect();
     if !alphas.is_empty() {

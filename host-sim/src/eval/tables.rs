@@ -463,7 +463,7 @@ impl Evaluation {
     pub fn best_alpha_over(&self, scenes: &[&SceneFile]) -> Option<(&DefaultsRow, f64)> {
         self.defaults
             .iter()
-            .filter(|r| r.parameter.starts_with("CFAR α"))
+            .filter(|r| r.parameter == super::SweepValue::CfarThreshold(0.0).parameter())
             .filter_map(|r| Some((r, self.mean_chamfer_over(scenes, &r.variant)?)))
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }
