@@ -132,7 +132,7 @@ fn fmt_opt(v: Option<f64>, digits: usize) -> String {
 /// listed).
 fn map_cells<'a>(
     rows: impl Iterator<Item = (&'a str, f64, Option<f64>, Option<f64>)>,
-) -> (usize, usize, Vec<String>) {
+) -> (usize, usize, Vec<(String, Vec<f64>)>) {
     let (mut wins, mut total) = (0, 0);
     let mut lost: Vec<(String, Vec<f64>)> = Vec::new();
     for (scene, x, dbe, fft) in rows {
@@ -149,13 +149,6 @@ fn map_cells<'a>(
             None => lost.push((scene.to_string(), vec![x])),
         }
     }
-    let lost = lost
-        .into_iter()
-        .map(|(s, xs)| {
-            let xs: Vec<String> = xs.iter().map(|x| format!("{x}")).collect();
-            format!("{s} ({} m)", xs.join(", "))
-        })
-        .collect();
     (wins, total, lost)
 }
 
@@ -173,24 +166,11 @@ fn map_chamfer_goal(e: &Evaluation) -> Goal {
             .iter()
             .map(|r| (r.scene.as_str(), r.resolution, r.dbe, r.fft)),
     );
-    let parts = [
-        ("the paper's CD(τ), exact poses", paper(false)),
-        ("after ICP", paper(true)),
-        ("the symmetric distance", symmetric),
-    ];
-    let met = parts.iter().all(|(_, (w, t, _))| w == t && *t > 0);
     // For each scene the symmetric distance loses: the object that costs the DBE map most.
-    let mut lost_scenes: Vec<&str> = Vec::new();
-    for r in &e.chamfer_map {
-        let lost = !matches!((r.dbe, r.fft), (Some(d), Some(f)) if d < f);
-        let extended = SCENES[..EXTENDED_SCENES].iter().any(|s| s.name == r.scene);
-        if lost && extended && !lost_scenes.contains(&r.scene.as_str()) {
-            lost_scenes.push(&r.scene);
-        }
-    }
-    let worst: Vec<String> = lost_scenes
+    let worst: Vec<String> = symmetric
+        .2
         .iter()
-        .filter_map(|scene| {
+        .filter_map(|(scene, _)| {
             let o = e
                 .map_objects
                 .iter()
@@ -209,11 +189,24 @@ fn map_chamfer_goal(e: &Evaluation) -> Goal {
             ))
         })
         .collect();
+    let parts = [
+        ("the paper's CD(τ), exact poses", paper(false)),
+        ("after ICP", paper(true)),
+        ("the symmetric distance", symmetric),
+    ];
+    let met = parts.iter().all(|(_, (w, t, _))| w == t && *t > 0);
     let detail = parts
         .iter()
         .map(|(what, (w, t, lost))| {
             let mut d = format!("{what}: DBE below FFT in {w} of {t} cells");
             if !lost.is_empty() {
+                let lost: Vec<String> = lost
+                    .iter()
+                    .map(|(s, xs)| {
+                        let xs: Vec<String> = xs.iter().map(|x| format!("{x}")).collect();
+                        format!("{s} ({} m)", xs.join(", "))
+                    })
+                    .collect();
                 d.push_str(&format!(" (not: {})", lost.join("; ")));
             }
             d

@@ -199,15 +199,27 @@ pub struct MapSize {
     pub fft_icp_shift_m: Option<f64>,
 }
 
-/// The scenes of `frames`, each once, in the order they first come.
-fn scenes_in(frames: &[SceneFrame]) -> Vec<&'static str> {
-    let mut scenes: Vec<&'static str> = Vec::new();
+/// The frames of each scene of `frames`, the scenes in the order they first come.
+fn by_scene(frames: &[SceneFrame]) -> Vec<(&'static str, Vec<&SceneFrame>)> {
+    let mut scenes: Vec<(&'static str, Vec<&SceneFrame>)> = Vec::new();
     for f in frames {
-        if !scenes.contains(&f.scene) {
-            scenes.push(f.scene);
+        match scenes.iter_mut().find(|(s, _)| *s == f.scene) {
+            Some((_, of)) => of.push(f),
+            None => scenes.push((f.scene, vec![f])),
         }
     }
     scenes
+}
+
+/// Variant `v`'s sequence map of the frames `of`: their points in the world frame,
+/// voxel-downsampled at [`MAP_VOXEL_M`].
+fn sequence_map(of: &[&SceneFrame], v: usize) -> Vec<P3> {
+    let cloud: Vec<P3> = of
+        .iter()
+        .filter_map(|f| f.metrics.get(v).and_then(Option::as_ref))
+        .flat_map(|m| m.cloud_world.iter().copied())
+        .collect();
+    voxel_downsample(&cloud, MAP_VOXEL_M)
 }
 
 /// Both metrics for every scene of `frames`, from the variants at indices `dbe` and `fft`,
@@ -218,23 +230,15 @@ pub fn map_rows(
     fft: usize,
     resolutions: &[f64],
 ) -> (Vec<PaperChamferRow>, Vec<MapChamferRow>, Vec<MapSize>) {
-    let scenes = scenes_in(frames);
     let (mut paper, mut sym, mut sizes) = (Vec::new(), Vec::new(), Vec::new());
-    for scene in scenes {
-        let of: Vec<&SceneFrame> = frames.iter().filter(|f| f.scene == scene).collect();
+    for (scene, of) in by_scene(frames) {
         let truth: Vec<P3> = of
             .iter()
             .flat_map(|f| f.truth_world.iter().copied())
             .collect();
-        let cloud = |v: usize| -> Vec<P3> {
-            of.iter()
-                .filter_map(|f| f.metrics.get(v).and_then(Option::as_ref))
-                .flat_map(|m| m.cloud_world.iter().copied())
-                .collect()
-        };
         let gt = voxel_downsample(&truth, MAP_VOXEL_M);
         let gt_tree = KdTree::new(&gt);
-        let maps = [dbe, fft].map(|v| voxel_downsample(&cloud(v), MAP_VOXEL_M));
+        let maps = [dbe, fft].map(|v| sequence_map(&of, v));
         let aligned = maps.clone().map(|m| icp(&m, &gt_tree));
         let cd = |m: &[P3]| paper_chamfer(m, &gt, &gt_tree, &TAUS_M);
         let exact = [cd(&maps[0]), cd(&maps[1])];
@@ -314,10 +318,8 @@ impl ObjectCoverage {
 /// [`ObjectCoverage`] of every object with truth points in each scene of `frames`, from the
 /// variants at indices `dbe` and `fft`, in the order the scenes' objects come.
 pub fn object_rows(frames: &[SceneFrame], dbe: usize, fft: usize) -> Vec<ObjectCoverage> {
-    let scenes = scenes_in(frames);
     let mut rows = Vec::new();
-    for scene in scenes {
-        let of: Vec<&SceneFrame> = frames.iter().filter(|f| f.scene == scene).collect();
+    for (scene, of) in by_scene(frames) {
         // Each object's truth samples over the frames, downsampled on their own.
         let mut objects: Vec<(String, Vec<P3>)> = Vec::new();
         for f in &of {
@@ -347,13 +349,7 @@ pub fn object_rows(frames: &[SceneFrame], dbe: usize, fft: usize) -> Vec<ObjectC
             .collect();
         let truth_tree = KdTree::new(&all);
         let per_chain = |v: usize| {
-            let map = voxel_downsample(
-                &of.iter()
-                    .filter_map(|f| f.metrics.get(v).and_then(Option::as_ref))
-                    .flat_map(|m| m.cloud_world.iter().copied())
-                    .collect::<Vec<_>>(),
-                MAP_VOXEL_M,
-            );
+            let map = sequence_map(&of, v);
             let mut counts = vec![0usize; objects.len()];
             for p in &map {
                 if let Some((q, d)) = truth_tree.nearest(p) {
